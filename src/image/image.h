@@ -1,0 +1,54 @@
+// # implicit: images
+//
+// Linear float RGBA images, tone mapping and colour conversions. Row 0 is the
+// top of the image.
+#pragma once
+
+#include <vector>
+
+#include "../math/math.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// IMAGE DATA
+// -----------------------------------------------------------------------------
+
+// Linear RGBA pixels, row-major, row 0 at the top.
+struct image_data {
+  int                width  = 0;
+  int                height = 0;
+  std::vector<vec4f> pixels = {};
+};
+
+// A black transparent image of the given size.
+image_data make_image(int width, int height);
+
+// Pixel access.
+inline vec4f& pixel(image_data& image, int i, int j) {
+  return image.pixels[(size_t)j * image.width + i];
+}
+inline const vec4f& pixel(const image_data& image, int i, int j) {
+  return image.pixels[(size_t)j * image.width + i];
+}
+
+// -----------------------------------------------------------------------------
+// COLOR
+// -----------------------------------------------------------------------------
+
+// sRGB transfer functions, per channel.
+float srgb_to_linear(float srgb);
+float linear_to_srgb(float linear);
+
+// ACES filmic fit (Narkowicz 2015), as in Yocto/GL.
+vec3f tonemap_filmic(vec3f hdr);
+
+// Exposure (stops), optional filmic curve, then sRGB encoding; alpha is kept.
+vec4f tonemap(vec4f hdr, float exposure, bool filmic, bool srgb = true);
+image_data tonemap_image(
+    const image_data& hdr, float exposure, bool filmic, bool srgb = true);
+
+// Bilinear lookup with wrap-around, uv in [0,1]^2 (u right, v down).
+vec4f eval_image(const image_data& image, vec2f uv);
+
+}  // namespace implicit

@@ -1,0 +1,81 @@
+// # implicit: sampling warps and their pdfs
+//
+// Each warp maps uniform numbers in [0,1)^n to a distribution; its `_pdf`
+// twin returns the density of the same distribution (solid angle for
+// directions).
+#pragma once
+
+#include <vector>
+
+#include "math.h"
+
+namespace implicit {
+
+// Uniform direction on the unit sphere.
+inline vec3f sample_sphere(vec2f ruv) {
+  auto z   = 2 * ruv.y - 1;
+  auto r   = std::sqrt(clamp(1 - z * z, 0.0f, 1.0f));
+  auto phi = 2 * pif * ruv.x;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+inline float sample_sphere_pdf(vec3f) { return 1 / (4 * pif); }
+
+// Cosine-weighted direction in the hemisphere around `normal`.
+inline vec3f sample_hemisphere_cos(vec3f normal, vec2f ruv) {
+  auto z     = std::sqrt(ruv.y);
+  auto r     = std::sqrt(1 - z * z);
+  auto phi   = 2 * pif * ruv.x;
+  auto local = vec3f{r * std::cos(phi), r * std::sin(phi), z};
+  return transform_direction(basis_fromz(normal), local);
+}
+inline float sample_hemisphere_cos_pdf(vec3f normal, vec3f direction) {
+  auto cosw = dot(normal, direction);
+  return cosw <= 0 ? 0 : cosw / pif;
+}
+
+// Uniform point on the unit disk (concentric mapping keeps strata).
+inline vec2f sample_disk(vec2f ruv) {
+  auto a = 2 * ruv.x - 1, b = 2 * ruv.y - 1;
+  if (a == 0 && b == 0) return {0, 0};
+  auto r = 0.0f, phi = 0.0f;
+  if (a * a > b * b) {
+    r   = a;
+    phi = (pif / 4) * (b / a);
+  } else {
+    r   = b;
+    phi = (pif / 2) - (pif / 4) * (a / b);
+  }
+  return {r * std::cos(phi), r * std::sin(phi)};
+}
+
+// Uniform direction inside a cone of half-angle acos(cos_max) around `axis`.
+inline vec3f sample_cone(vec3f axis, float cos_max, vec2f ruv) {
+  auto cos_t = 1 - ruv.y * (1 - cos_max);
+  auto sin_t = std::sqrt(clamp(1 - cos_t * cos_t, 0.0f, 1.0f));
+  auto phi   = 2 * pif * ruv.x;
+  auto local = vec3f{sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t};
+  return transform_direction(basis_fromz(axis), local);
+}
+inline float sample_cone_pdf(float cos_max) {
+  return 1 / (2 * pif * (1 - cos_max));
+}
+
+// Index from a cumulative distribution (cdf.back() is the total weight).
+inline int sample_discrete(const std::vector<float>& cdf, float r) {
+  r        = clamp(r * cdf.back(), 0.0f, cdf.back() - 1e-6f * cdf.back());
+  auto idx = (int)(std::upper_bound(cdf.data(), cdf.data() + cdf.size(), r) -
+                   cdf.data());
+  return clamp(idx, 0, (int)cdf.size() - 1);
+}
+inline float sample_discrete_pdf(const std::vector<float>& cdf, int idx) {
+  if (idx < 0 || idx >= (int)cdf.size()) return 0;
+  return (idx == 0 ? cdf[0] : cdf[idx] - cdf[idx - 1]) / cdf.back();
+}
+
+// Uniform integer in [0, size).
+inline int sample_uniform(int size, float r) {
+  return clamp((int)(r * size), 0, size - 1);
+}
+inline float sample_uniform_pdf(int size) { return 1.0f / size; }
+
+}  // namespace implicit

@@ -1,0 +1,120 @@
+// # implicit: SDF primitives
+//
+// One evaluation function per primitive, in the primitive's local space, after
+// Inigo Quilez's catalogue (iquilezles.org/articles/distfunctions). All are
+// exact Euclidean distances (1-Lipschitz) unless noted. The seed's six types
+// keep their exact conventions: `box` has its corner at the origin and full
+// size, `bbox` is centred with half sizes, `capped_cone` takes a half height.
+#pragma once
+
+#include "../math/math.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// PRIMITIVES (local space, all 1-Lipschitz)
+// -----------------------------------------------------------------------------
+
+// Box centred at the origin with half sizes `half`.
+inline float sd_centered_box(vec3f p, vec3f half) {
+  auto d = abs(p) - half;
+  return std::min(max(d), 0.0f) + length(max(d, 0.0f));
+}
+
+// Seed `box`: full size `whd`, corner at the local origin, occupies [0,whd].
+inline float sd_box(vec3f p, vec3f whd) {
+  return sd_centered_box(p - whd * 0.5f, whd * 0.5f);
+}
+
+// Seed `bbox`: box frame centred at the origin, half sizes `half`, bars of
+// half thickness `thickness`.
+inline float sd_box_frame(vec3f p, vec3f half, float thickness) {
+  auto q = abs(p) - half;
+  auto r = abs(q + thickness) - thickness;
+  auto t = [](vec3f a) {
+    return length(max(a, 0.0f)) + std::min(max(a), 0.0f);
+  };
+  return std::min(std::min(t({q.x, r.y, r.z}), t({r.x, q.y, r.z})),
+      t({r.x, r.y, q.z}));
+}
+
+inline float sd_sphere(vec3f p, float radius) { return length(p) - radius; }
+
+// Torus about the local y axis: ring radius `r1`, tube radius `r2`.
+inline float sd_torus(vec3f p, float r1, float r2) {
+  auto q = vec2f{length(vec2f{p.x, p.z}) - r1, p.y};
+  return length(q) - r2;
+}
+
+// Seed `capped_cone`: axis y, spans y in [-height, height], radius r1 at the
+// bottom and r2 at the top.
+inline float sd_capped_cone(vec3f p, float height, float r1, float r2) {
+  auto q  = vec2f{length(vec2f{p.x, p.z}), p.y};
+  auto k1 = vec2f{r2, height};
+  auto k2 = vec2f{r2 - r1, 2 * height};
+  auto ca = vec2f{q.x - std::min(q.x, q.y < 0 ? r1 : r2), std::abs(q.y) - height};
+  auto kk = dot(k2, k2);
+  auto cb = q - k1 + k2 * clamp(kk > 0 ? dot(k1 - q, k2) / kk : 0.0f, 0.0f, 1.0f);
+  auto s  = (cb.x < 0 && ca.y < 0) ? -1.0f : 1.0f;
+  return s * std::sqrt(std::min(dot(ca, ca), dot(cb, cb)));
+}
+
+// Plane y = 0 with normal +y.
+inline float sd_plane(vec3f p) { return p.y; }
+
+// Capsule along y between (0,-height,0) and (0,height,0).
+inline float sd_capsule(vec3f p, float height, float radius) {
+  auto y = clamp(p.y, -height, height);
+  return length(vec3f{p.x, p.y - y, p.z}) - radius;
+}
+
+// Capped cylinder along y, half height `height`.
+inline float sd_cylinder(vec3f p, float height, float radius) {
+  auto d = vec2f{length(vec2f{p.x, p.z}) - radius, std::abs(p.y) - height};
+  return std::min(std::max(d.x, d.y), 0.0f) + length(max(d, 0.0f));
+}
+
+// Box with half sizes `half` whose edges are rounded by `radius` (the radius
+// is inside the half sizes).
+inline float sd_rounded_box(vec3f p, vec3f half, float radius) {
+  return sd_centered_box(p, half - radius) - radius;
+}
+
+// Ellipsoid with semi-axes `radii`. Not exact: IQ's bound k0*(k0-1)/k1, which
+// is close to the distance near the surface; its Lipschitz factor is stated in
+// sdf_lipschitz().
+inline float sd_ellipsoid(vec3f p, vec3f radii) {
+  auto k0 = length(p / radii);
+  auto k1 = length(p / (radii * radii));
+  if (k1 == 0) return -min(radii);
+  return k0 * (k0 - 1) / k1;
+}
+
+// Regular octahedron |x|+|y|+|z| = size (exact version).
+inline float sd_octahedron(vec3f p, float size) {
+  p      = abs(p);
+  auto m = p.x + p.y + p.z - size;
+  auto q = vec3f{};
+  if (3 * p.x < m) q = p;
+  else if (3 * p.y < m) q = {p.y, p.z, p.x};
+  else if (3 * p.z < m) q = {p.z, p.x, p.y};
+  else return m * 0.57735027f;
+  auto k = clamp(0.5f * (q.z - q.y + size), 0.0f, size);
+  return length(vec3f{q.x, q.y - size + k, q.z - k});
+}
+
+// -----------------------------------------------------------------------------
+// OPERATORS (on distances)
+// -----------------------------------------------------------------------------
+
+// Polynomial smooth minimum; never below min(a,b) - blend/4.
+inline float smooth_min(float a, float b, float blend) {
+  if (blend <= 0) return std::min(a, b);
+  auto h = std::max(blend - std::abs(a - b), 0.0f) / blend;
+  return std::min(a, b) - h * h * blend * 0.25f;
+}
+inline float smooth_max(float a, float b, float blend) {
+  return -smooth_min(-a, -b, blend);
+}
+
+}  // namespace implicit

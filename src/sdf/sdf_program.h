@@ -1,0 +1,123 @@
+// # implicit: SDF programs
+//
+// An analytic SDF is a small expression tree stored as a flat node array:
+// primitives are leaves, operators reference their operands by index. The
+// tree is plain data; evaluation is a `switch` on the node type, never a
+// virtual or std::function call. Every program knows the bounding box of its
+// zero set and its Lipschitz bound, so the tracer can march it safely and
+// only where it can be hit.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "../math/math.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// NODES
+// -----------------------------------------------------------------------------
+
+// Node types: primitives first (the seed's six, then the new ones), then the
+// operators. Names in sdf_type_names, used by JSON, CLI and UI.
+enum class sdf_type {
+  // clang-format off
+  box, bbox, sphere, torus, capped_cone, plane,
+  capsule, cylinder, rounded_box, ellipsoid, octahedron,
+  op_union, op_intersection, op_subtraction,
+  op_smooth_union, op_smooth_intersection, op_smooth_subtraction,
+  op_round, op_onion, op_transform,
+  // clang-format on
+};
+
+inline const std::vector<std::string> sdf_type_names = {
+    // clang-format off
+  "box", "bbox", "sphere", "torus", "capped_cone", "plane",
+  "capsule", "cylinder", "rounded_box", "ellipsoid", "octahedron",
+  "union", "intersection", "subtraction",
+  "smooth_union", "smooth_intersection", "smooth_subtraction",
+  "round", "onion", "transform",
+    // clang-format on
+};
+
+// True for leaves, false for operators.
+inline bool is_primitive(sdf_type type) { return type < sdf_type::op_union; }
+
+// One node. Parameters are named by meaning; each type reads only its own:
+//   box: size (full size, corner at origin)      bbox: size (half), thickness
+//   sphere: radius                               torus: radius (ring), radius2 (tube)
+//   capped_cone: height (half), radius (bottom), radius2 (top)
+//   plane: none                                  capsule/cylinder: height (half), radius
+//   rounded_box: size (half), radius             ellipsoid: size (semi-axes)
+//   octahedron: radius                           smooth ops: blend
+//   round: radius (added thickness)              onion: thickness (half shell)
+//   transform: frame (child_from_parent), operand left
+// Subtraction removes `right` from `left`.
+struct sdf_node {
+  sdf_type type      = sdf_type::sphere;
+  vec3f    size      = {0, 0, 0};
+  float    radius    = 0;
+  float    radius2   = 0;
+  float    height    = 0;
+  float    thickness = 0;
+  float    blend     = 0;
+  int      left      = invalidid;
+  int      right     = invalidid;
+  int      frame     = invalidid;  // index in sdf_program::frames
+};
+
+// A flat expression tree. Operands come before the nodes that use them; the
+// root is the last node. `frames` hold child_from_parent maps of transforms
+// and `frame_scales` the matching distance factors (1 / largest stretch).
+struct sdf_program {
+  std::vector<sdf_node> nodes       = {};
+  std::vector<frame3f>  frames       = {};
+  std::vector<float>    frame_scales = {};
+};
+
+// -----------------------------------------------------------------------------
+// BUILDING
+// -----------------------------------------------------------------------------
+
+// Append a node and return its index (the new root).
+int add_node(sdf_program& program, const sdf_node& node);
+// Append a transform node over `operand`, `child_from_parent` mapping the
+// parent's points into the operand's space.
+int add_transform(
+    sdf_program& program, int operand, const frame3f& child_from_parent);
+// Append the nodes of `other` (its root becomes an operand); returns its root.
+int append_program(sdf_program& program, const sdf_program& other);
+// A one-node program.
+sdf_program make_primitive_program(const sdf_node& node);
+// Index of the root node.
+inline int root_node(const sdf_program& program) {
+  return (int)program.nodes.size() - 1;
+}
+
+// -----------------------------------------------------------------------------
+// EVALUATION
+// -----------------------------------------------------------------------------
+
+// Distance of one primitive node at a local point.
+float eval_primitive(const sdf_node& node, vec3f p);
+// Distance of the whole program at a local point.
+float eval_sdf(const sdf_program& program, vec3f p);
+// Gradient of the program; analytic for simple primitives, otherwise
+// tetrahedral central differences with step `step`.
+vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step);
+
+// Bounding box of the zero set, in local space. Unbounded axes are infinite.
+bbox3f sdf_bounds(const sdf_program& program);
+// Lipschitz bound of the program (1 for exact distances).
+float sdf_lipschitz(const sdf_program& program);
+
+// Closed-form intersection of a single-primitive program, when one exists
+// (sphere, box, plane). Returns false when the program has none; otherwise
+// `hit` tells whether the ray hits in [tmin, tmax] and `t` is the first hit.
+bool intersect_sdf_exact(const sdf_program& program, const ray3f& ray,
+    bool& hit, float& t);
+// Whether intersect_sdf_exact() applies to this program.
+bool has_exact_intersection(const sdf_program& program);
+
+}  // namespace implicit
