@@ -1,1 +1,187 @@
-int main() { return 0; }
+// # ypathtrace: render implicit-surface scenes
+//
+// parse options -> load scene -> make accel + lights -> trace samples -> save.
+
+#include <tbb/global_control.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "image/image_io.h"
+#include "scene/scene_io.h"
+#include "trace/trace.h"
+#include "util/error.h"
+#include "util/progress.h"
+
+using namespace implicit;
+
+// -----------------------------------------------------------------------------
+// OPTIONS
+// -----------------------------------------------------------------------------
+
+struct app_options {
+  std::string  scene       = "scene.json";
+  std::string  output      = "out.png";
+  std::string  camera      = "";
+  std::string  shader      = "implicit";
+  std::string  accel       = "bvh";
+  std::string  mis         = "one";
+  trace_params params      = {};
+  float        exposure    = 0;
+  bool         filmic      = false;
+  bool         noimplicitmis = false;
+  int          threads     = 0;
+  int          savebatch   = 0;
+  bool         interactive = false;
+  bool         quiet       = false;
+};
+
+// Turn a name into an enum value using its names table.
+template <typename T>
+static T parse_enum(const std::string& option, const std::string& value,
+    const std::vector<std::string>& names) {
+  for (auto i = 0; i < (int)names.size(); i++)
+    if (names[i] == value) return (T)i;
+  auto valid = std::string{};
+  for (auto& name : names) valid += (valid.empty() ? "" : ", ") + name;
+  throw CLI::ValidationError(option, "unknown value \"" + value + "\" (valid: " + valid + ")");
+}
+
+static void add_options(CLI::App& app, app_options& opts) {
+  auto& p = opts.params;
+  app.add_option("--scene", opts.scene, "Scene file (JSON)")->capture_default_str();
+  app.add_option("--output", opts.output,
+      "Output image (.png/.jpg tonemapped, .hdr/.exr linear)")->capture_default_str();
+  app.add_option("--camera", opts.camera, "Camera name (default: as Yocto/GL finds it)");
+  app.add_option("--shader", opts.shader,
+      "Shader: implicit, implicit_normal, eyelight, normal, position, color, "
+      "frontfacing, material, steps")->capture_default_str();
+  app.add_option("--resolution", p.resolution, "Image size along the longest side")
+      ->check(CLI::Range(1, 16384))->capture_default_str();
+  app.add_option("--samples", p.samples, "Samples per pixel")
+      ->check(CLI::Range(1, 1 << 20))->capture_default_str();
+  app.add_option("--bounces", p.bounces, "Maximum path length")
+      ->check(CLI::Range(1, 1024))->capture_default_str();
+  app.add_option("--clamp", p.clamp, "Clamp sample radiance to this value")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--seed", p.seed, "Random seed")->capture_default_str();
+  app.add_option("--exposure", opts.exposure, "Exposure in stops (LDR output)")
+      ->check(CLI::Range(-100.0f, 100.0f))->capture_default_str();
+  app.add_flag("--filmic", opts.filmic, "Filmic tone curve (LDR output)");
+  app.add_flag("--envhidden", p.envhidden, "Hide the environment behind the scene");
+  app.add_flag("--tentfilter", p.tentfilter, "Tent pixel filter instead of box");
+  app.add_flag("--noimplicitmis", opts.noimplicitmis, "Disable light sampling (BSDF sampling only)");
+  app.add_option("--mis", opts.mis, "Light sampling: one (the seed's one-sample MIS) or two (two-sample, power heuristic)")
+      ->capture_default_str();
+  app.add_option("--stmaxiter", p.march.max_iterations, "Sphere-tracing iteration cap")
+      ->check(CLI::Range(1, 1000000))->capture_default_str();
+  app.add_option("--accel", opts.accel,
+      "Intersection: bvh (objects marched in their own boxes) or none (the seed's minimum over all objects)")
+      ->capture_default_str();
+  app.add_option("--threads", opts.threads, "Worker threads (0: all cores)")
+      ->check(CLI::Range(0, 4096))->capture_default_str();
+  app.add_option("--savebatch", opts.savebatch,
+      "Also save the image every N samples as <output>-s<samples>.<ext>")
+      ->check(CLI::Range(0, 1 << 20));
+  app.add_flag("--interactive", opts.interactive, "Open the interactive viewer");
+  app.add_flag("--quiet", opts.quiet, "No progress output");
+}
+
+// Check the options that CLI11 cannot check alone.
+static void validate_options(app_options& opts) {
+  auto& p  = opts.params;
+  p.shader = parse_enum<shader_type>("--shader", opts.shader, shader_type_names);
+  p.accel  = parse_enum<accel_type>("--accel", opts.accel, accel_type_names);
+  p.mis    = parse_enum<mis_type>("--mis", opts.mis, mis_type_names);
+  p.implicit_mis = !opts.noimplicitmis;
+  auto ext = opts.output.substr(opts.output.find_last_of('.') + 1);
+  for (auto& c : ext) c = (char)std::tolower(c);
+  if (opts.output.find('.') == std::string::npos ||
+      (ext != "png" && ext != "jpg" && ext != "jpeg" && ext != "hdr" && ext != "exr"))
+    throw CLI::ValidationError("--output",
+        "unsupported image format \"" + opts.output + "\" (use .png, .jpg, .hdr or .exr)");
+}
+
+// Name of a batch image: out.png -> out-s0016.png.
+static std::string batch_filename(const std::string& output, int samples) {
+  auto dot    = output.find_last_of('.');
+  auto number = std::to_string(samples);
+  while (number.size() < 4) number = "0" + number;
+  return output.substr(0, dot) + "-s" + number + output.substr(dot);
+}
+
+// -----------------------------------------------------------------------------
+// RENDER
+// -----------------------------------------------------------------------------
+
+static int run(app_options& opts) {
+  auto warnings = std::vector<std::string>{};
+  auto scene    = load_scene(opts.scene);  // TODO warnings overload
+  for (auto& warning : warnings) std::fprintf(stderr, "warning: %s\n", warning.c_str());
+
+  auto& params = opts.params;
+  auto  accel  = make_accel(scene, params.accel, params.march);
+  add_missing_camera(scene, accel.bounds);
+  params.camera = find_camera(scene, opts.camera);
+  auto lights   = make_lights(scene, accel);
+
+  auto has_emitters = !lights.lights.empty();
+  for (auto& object : accel.objects)
+    if (object.material >= 0 && max(scene.materials[object.material].emission) > 0)
+      has_emitters = true;
+  if (is_lit_shader(params.shader) && !has_emitters) {
+    std::fprintf(stderr,
+        "warning: the scene has no lights; rendering with the eyelight shader\n");
+    params.shader = shader_type::eyelight;
+  }
+
+  if (opts.interactive) {
+    throw io_error(
+        "the interactive viewer is not available yet; run without --interactive");
+  }
+
+  auto state    = make_state(scene, params);
+  auto progress = progress_state{};
+  start_progress(progress, "render " + opts.scene, params.samples,
+      !opts.quiet && stderr_is_terminal());
+  for (auto sample = 0; sample < params.samples; sample++) {
+    trace_samples(state, scene, accel, lights, params);
+    update_progress(progress, sample + 1);
+    if (opts.savebatch > 0 && (sample + 1) % opts.savebatch == 0 &&
+        sample + 1 < params.samples) {
+      save_image(batch_filename(opts.output, sample + 1), get_render(state),
+          opts.exposure, opts.filmic);
+    }
+  }
+  end_progress(progress);
+  save_image(opts.output, get_render(state), opts.exposure, opts.filmic);
+  return 0;
+}
+
+int main(int argc, char** argv) {
+  auto app  = CLI::App{"Render scenes made of implicit surfaces (SDFs and SDF grids).", "ypathtrace"};
+  auto opts = app_options{};
+  add_options(app, opts);
+  try {
+    app.parse(argc, argv);
+    validate_options(opts);
+  } catch (const CLI::CallForHelp&) {
+    std::printf("%s", app.help().c_str());
+    return 0;
+  } catch (const CLI::ParseError& error) {
+    std::fprintf(stderr, "ypathtrace: error: %s\n\n%s", error.what(), app.help().c_str());
+    return 2;
+  }
+  try {
+    auto control = std::unique_ptr<tbb::global_control>{};
+    if (opts.threads > 0)
+      control = std::make_unique<tbb::global_control>(
+          tbb::global_control::max_allowed_parallelism, opts.threads);
+    return run(opts);
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "ypathtrace: error: %s\n", error.what());
+    return 1;
+  }
+}

@@ -26,8 +26,8 @@ inline float sd_box(vec3f p, vec3f whd) {
   return sd_centered_box(p - whd * 0.5f, whd * 0.5f);
 }
 
-// Seed `bbox`: box frame centred at the origin, half sizes `half`, bars of
-// half thickness `thickness`.
+// Seed `bbox`: box frame centred at the origin, half sizes `half`; its bars
+// are `thickness` wide and flush with the box's faces.
 inline float sd_box_frame(vec3f p, vec3f half, float thickness) {
   auto q = abs(p) - half;
   auto r = abs(q + thickness) - thickness;

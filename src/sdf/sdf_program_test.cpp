@@ -1,0 +1,257 @@
+// Tests for SDF primitives and programs: closed forms at known points,
+// bounds, Lipschitz bounds, gradients and exact intersections.
+
+#include "sdf_program.h"
+
+#include <doctest/doctest.h>
+
+#include "../math/random.h"
+#include "sdf_primitives.h"
+
+using namespace implicit;
+
+static sdf_node make_node(sdf_type type) {
+  auto node = sdf_node{};
+  node.type = type;
+  return node;
+}
+
+TEST_CASE("sdf primitives: seed types at known points") {
+  // box: full size, corner at the origin.
+  auto box = make_node(sdf_type::box);
+  box.size = {2, 1, 4};
+  CHECK(eval_primitive(box, {1, 0.5f, 2}) == doctest::Approx(-0.5f));
+  CHECK(eval_primitive(box, {3, 0.5f, 2}) == doctest::Approx(1.0f));
+  CHECK(eval_primitive(box, {-3, -4, 2}) == doctest::Approx(5.0f));  // 3-4-5
+  CHECK(eval_primitive(box, {2, 1, 4}) == doctest::Approx(0.0f));
+  // bbox: half sizes centred, bars of width t flush with the box faces.
+  auto frame = make_node(sdf_type::bbox);
+  frame.size = {1, 1, 1};
+  frame.thickness = 0.1f;
+  CHECK(eval_primitive(frame, {1, 1, 0}) == doctest::Approx(0.0f));  // outer edge
+  CHECK(eval_primitive(frame, {0.95f, 0.95f, 0}) == doctest::Approx(-0.05f));  // in a bar
+  CHECK(eval_primitive(frame, {0, 0, 0}) == doctest::Approx(std::sqrt(2.0f) * 0.8f));
+  CHECK(eval_primitive(frame, {1, 1, 2}) == doctest::Approx(1.0f));  // beyond a corner
+  // sphere.
+  auto sphere   = make_node(sdf_type::sphere);
+  sphere.radius = 0.5f;
+  CHECK(eval_primitive(sphere, {0, 0, 0}) == doctest::Approx(-0.5f));
+  CHECK(eval_primitive(sphere, {0, 3, 4}) == doctest::Approx(4.5f));
+  // torus about y: ring 1, tube 0.25.
+  auto torus    = make_node(sdf_type::torus);
+  torus.radius  = 1;
+  torus.radius2 = 0.25f;
+  CHECK(eval_primitive(torus, {1, 0, 0}) == doctest::Approx(-0.25f));
+  CHECK(eval_primitive(torus, {0, 0, 0}) == doctest::Approx(0.75f));
+  CHECK(eval_primitive(torus, {0, 0, 1.25f}) == doctest::Approx(0.0f));
+  CHECK(eval_primitive(torus, {1, 1, 0}) == doctest::Approx(0.75f));
+  // capped cone: half height 1, bottom radius 1, top radius 0.5.
+  auto cone    = make_node(sdf_type::capped_cone);
+  cone.height  = 1;
+  cone.radius  = 1;
+  cone.radius2 = 0.5f;
+  CHECK(eval_primitive(cone, {0, 2, 0}) == doctest::Approx(1.0f));    // above the top cap
+  CHECK(eval_primitive(cone, {0, -1.5f, 0}) == doctest::Approx(0.5f));  // below the bottom
+  CHECK(eval_primitive(cone, {0, 0, 0}) == doctest::Approx(-0.727607f).epsilon(1e-4));
+  CHECK(eval_primitive(cone, {0.75f, 0, 0}) == doctest::Approx(0.0f).epsilon(1e-5));
+  // plane y = 0.
+  auto plane = make_node(sdf_type::plane);
+  CHECK(eval_primitive(plane, {5, -2, 7}) == doctest::Approx(-2.0f));
+}
+
+TEST_CASE("sdf primitives: new types at known points") {
+  auto capsule   = make_node(sdf_type::capsule);
+  capsule.height = 1;
+  capsule.radius = 0.5f;
+  CHECK(eval_primitive(capsule, {0, 2, 0}) == doctest::Approx(0.5f));
+  CHECK(eval_primitive(capsule, {2, 0.3f, 0}) == doctest::Approx(1.5f));
+  auto cylinder   = make_node(sdf_type::cylinder);
+  cylinder.height = 1;
+  cylinder.radius = 0.5f;
+  CHECK(eval_primitive(cylinder, {0, 0, 0}) == doctest::Approx(-0.5f));
+  CHECK(eval_primitive(cylinder, {1.5f, 2, 0}) == doctest::Approx(std::sqrt(2.0f)));
+  auto rounded   = make_node(sdf_type::rounded_box);
+  rounded.size   = {1, 1, 1};
+  rounded.radius = 0.25f;
+  CHECK(eval_primitive(rounded, {2, 0, 0}) == doctest::Approx(1.0f));
+  CHECK(eval_primitive(rounded, {1, 1, 1}) ==
+        doctest::Approx(std::sqrt(3.0f) * 0.25f - 0.25f));
+  auto ellipsoid = make_node(sdf_type::ellipsoid);
+  ellipsoid.size = {2, 1, 1};
+  CHECK(eval_primitive(ellipsoid, {2, 0, 0}) == doctest::Approx(0.0f));
+  CHECK(eval_primitive(ellipsoid, {0, 1, 0}) == doctest::Approx(0.0f));
+  CHECK(eval_primitive(ellipsoid, {0, 3, 0}) == doctest::Approx(2.0f));
+  auto octahedron   = make_node(sdf_type::octahedron);
+  octahedron.radius = 1;
+  CHECK(eval_primitive(octahedron, {2, 0, 0}) == doctest::Approx(1.0f));
+  CHECK(eval_primitive(octahedron, {0, 0, 0}) ==
+        doctest::Approx(-1 / std::sqrt(3.0f)));
+}
+
+// Program of two unit spheres at x = -0.5 and x = +0.5 combined by `op`.
+static sdf_program two_spheres(sdf_type op, float blend = 0) {
+  auto program  = sdf_program{};
+  auto sphere   = make_node(sdf_type::sphere);
+  sphere.radius = 1;
+  auto a        = add_transform(program, add_node(program, sphere),
+             {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0.5f, 0, 0}});
+  auto b        = add_transform(program, add_node(program, sphere),
+             {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-0.5f, 0, 0}});
+  auto node     = make_node(op);
+  node.left     = a;
+  node.right    = b;
+  node.blend    = blend;
+  add_node(program, node);
+  return program;
+}
+
+TEST_CASE("sdf programs: operators") {
+  // Sphere a is centred at x = -0.5 (child_from_parent adds 0.5), b at +0.5.
+  auto u = two_spheres(sdf_type::op_union);
+  CHECK(eval_sdf(u, {2.5f, 0, 0}) == doctest::Approx(1.0f));
+  CHECK(eval_sdf(u, {-2.5f, 0, 0}) == doctest::Approx(1.0f));
+  auto i = two_spheres(sdf_type::op_intersection);
+  CHECK(eval_sdf(i, {0, 0, 0}) == doctest::Approx(-0.5f));
+  CHECK(eval_sdf(i, {1.5f, 0, 0}) == doctest::Approx(1.0f));
+  auto s = two_spheres(sdf_type::op_subtraction);  // a minus b
+  CHECK(eval_sdf(s, {-1.2f, 0, 0}) == doctest::Approx(-0.3f));
+  CHECK(eval_sdf(s, {0, 0, 0}) == doctest::Approx(0.5f));
+  // Smooth union is below the union by at most blend/4, exactly where the
+  // two distances are equal.
+  auto su = two_spheres(sdf_type::op_smooth_union, 0.4f);
+  CHECK(eval_sdf(su, {0, 2, 0}) ==
+        doctest::Approx(eval_sdf(u, {0, 2, 0}) - 0.1f));
+  CHECK(eval_sdf(su, {3, 0, 0}) == doctest::Approx(eval_sdf(u, {3, 0, 0})));
+  // Round and onion.
+  auto program  = sdf_program{};
+  auto sphere   = make_node(sdf_type::sphere);
+  sphere.radius = 1;
+  auto round    = make_node(sdf_type::op_round);
+  round.left    = add_node(program, sphere);
+  round.radius  = 0.5f;
+  add_node(program, round);
+  CHECK(eval_sdf(program, {3, 0, 0}) == doctest::Approx(1.5f));
+  auto onion      = make_node(sdf_type::op_onion);
+  onion.left      = root_node(program);
+  onion.thickness = 0.1f;
+  add_node(program, onion);
+  CHECK(eval_sdf(program, {0, 0, 0}) == doctest::Approx(1.4f));
+  CHECK(eval_sdf(program, {1.5f, 0, 0}) == doctest::Approx(-0.1f));
+}
+
+TEST_CASE("sdf programs: bounds contain the surface and are tight") {
+  auto u   = two_spheres(sdf_type::op_union);
+  auto box = sdf_bounds(u);
+  CHECK(box.min.x == doctest::Approx(-1.5f));
+  CHECK(box.max.x == doctest::Approx(1.5f));
+  CHECK(box.max.y == doctest::Approx(1.0f));
+  auto su = sdf_bounds(two_spheres(sdf_type::op_smooth_union, 0.4f));
+  CHECK(su.max.x == doctest::Approx(1.6f));
+  auto in = sdf_bounds(two_spheres(sdf_type::op_intersection));
+  CHECK(in.min.x == doctest::Approx(-0.5f));
+  CHECK(in.max.x == doctest::Approx(0.5f));
+  // Random points outside the bounds of each primitive are outside it.
+  auto rng = make_rng(7);
+  for (auto type : {sdf_type::box, sdf_type::bbox, sdf_type::sphere,
+           sdf_type::torus, sdf_type::capped_cone, sdf_type::capsule,
+           sdf_type::cylinder, sdf_type::rounded_box, sdf_type::ellipsoid,
+           sdf_type::octahedron}) {
+    auto node      = make_node(type);
+    node.size      = {0.3f, 0.5f, 0.7f};
+    node.radius    = 0.25f;
+    node.radius2   = 0.1f;
+    node.height    = 0.6f;
+    node.thickness = 0.05f;
+    auto program   = make_primitive_program(node);
+    auto bounds    = sdf_bounds(program);
+    for (auto k = 0; k < 2000; k++) {
+      auto p = vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} * 4 - 2;
+      if (inside(bounds, p)) continue;
+      CHECK(eval_sdf(program, p) > 0);
+    }
+  }
+}
+
+TEST_CASE("sdf programs: Lipschitz bound holds on random pairs") {
+  auto rng = make_rng(11);
+  auto programs = std::vector<sdf_program>{two_spheres(sdf_type::op_union),
+      two_spheres(sdf_type::op_smooth_union, 0.5f),
+      two_spheres(sdf_type::op_smooth_subtraction, 0.3f)};
+  auto ellipsoid = make_node(sdf_type::ellipsoid);
+  ellipsoid.size = {1, 0.25f, 0.5f};
+  programs.push_back(make_primitive_program(ellipsoid));
+  for (auto& program : programs) {
+    auto lipschitz = sdf_lipschitz(program);
+    for (auto k = 0; k < 5000; k++) {
+      auto p = vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} * 6 - 3;
+      auto q = p + (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 0.2f;
+      auto slope = std::abs(eval_sdf(program, p) - eval_sdf(program, q)) / distance(p, q);
+      CHECK(slope <= lipschitz * 1.001f + 1e-4f);
+    }
+  }
+}
+
+TEST_CASE("sdf programs: gradients") {
+  // Analytic box gradient on a box thinner than any finite-difference step.
+  auto box = make_node(sdf_type::box);
+  box.size = {2, 1e-5f, 2};
+  auto program = make_primitive_program(box);
+  auto g = eval_sdf_gradient(program, {1, 1e-5f, 1}, 1e-3f);
+  CHECK(g.y == doctest::Approx(1.0f));
+  g = eval_sdf_gradient(program, {1, -1e-6f, 1}, 1e-3f);
+  CHECK(g.y == doctest::Approx(-1.0f));
+  // Finite differences on a capped cone agree with the direction to the axis
+  // on its side.
+  auto cone    = make_node(sdf_type::capped_cone);
+  cone.height  = 1;
+  cone.radius  = 1;
+  cone.radius2 = 1;  // a cylinder
+  auto cg = eval_sdf_gradient(make_primitive_program(cone), {1, 0, 0}, 1e-4f);
+  CHECK(cg.x == doctest::Approx(1.0f).epsilon(1e-3));
+  // Torus analytic gradient points away from the ring.
+  auto torus    = make_node(sdf_type::torus);
+  torus.radius  = 1;
+  torus.radius2 = 0.25f;
+  auto tg = eval_sdf_gradient(make_primitive_program(torus), {0, 0.25f, 1}, 1e-4f);
+  CHECK(tg.y == doctest::Approx(1.0f));
+}
+
+TEST_CASE("sdf programs: exact intersections") {
+  auto sphere   = make_node(sdf_type::sphere);
+  sphere.radius = 1;
+  auto program  = make_primitive_program(sphere);
+  auto hit = false;
+  auto t   = 0.0f;
+  REQUIRE(intersect_sdf_exact(program, {{0, 0, -5}, {0, 0, 1}, 0, flt_max}, hit, t));
+  CHECK(hit);
+  CHECK(t == doctest::Approx(4.0f));
+  // From inside: the exit.
+  intersect_sdf_exact(program, {{0, 0, 0}, {0, 0, 1}, 0, flt_max}, hit, t);
+  CHECK(hit);
+  CHECK(t == doctest::Approx(1.0f));
+  // Non-unit direction keeps t's meaning.
+  intersect_sdf_exact(program, {{0, 0, -5}, {0, 0, 2}, 0, flt_max}, hit, t);
+  CHECK(t == doctest::Approx(2.0f));
+  // Miss, and a hit beyond tmax.
+  intersect_sdf_exact(program, {{0, 1.01f, -5}, {0, 0, 1}, 0, flt_max}, hit, t);
+  CHECK(!hit);
+  intersect_sdf_exact(program, {{0, 0, -5}, {0, 0, 1}, 0, 3}, hit, t);
+  CHECK(!hit);
+  // Box with corner at origin; a ray parallel to a face inside the slab.
+  auto box = make_node(sdf_type::box);
+  box.size = {1, 2, 3};
+  intersect_sdf_exact(make_primitive_program(box), {{-1, 1, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
+  CHECK(hit);
+  CHECK(t == doctest::Approx(1.0f));
+  intersect_sdf_exact(make_primitive_program(box), {{-1, 2.5f, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
+  CHECK(!hit);
+  // Plane.
+  auto plane = make_node(sdf_type::plane);
+  intersect_sdf_exact(make_primitive_program(plane), {{0, 2, 0}, {0, -1, 0}, 0, flt_max}, hit, t);
+  CHECK(hit);
+  CHECK(t == doctest::Approx(2.0f));
+  intersect_sdf_exact(make_primitive_program(plane), {{0, 2, 0}, {1, 0, 0}, 0, flt_max}, hit, t);
+  CHECK(!hit);
+  // Not applicable to operators.
+  CHECK(!has_exact_intersection(two_spheres(sdf_type::op_union)));
+}

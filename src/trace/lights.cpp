@@ -1,0 +1,209 @@
+// # implicit: lights (implementation)
+
+#include "lights.h"
+
+#include "../math/sampling.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// SHAPE LIGHTS
+// -----------------------------------------------------------------------------
+
+// Rigid maps keep areas and distances, so local samples are world samples.
+static bool is_rigid(const frame3f& frame) {
+  auto det = determinant(rotation(frame));
+  return std::abs(max_stretch(frame) - 1) < 1e-3f && std::abs(std::abs(det) - 1) < 3e-3f;
+}
+
+// Face areas of a box of size s: -x, +x, -y, +y, -z, +z.
+static std::vector<float> box_faces_cdf(vec3f s) {
+  auto areas = std::vector<float>{s.y * s.z, s.y * s.z, s.x * s.z, s.x * s.z,
+      s.x * s.y, s.x * s.y};
+  for (auto i = 1; i < 6; i++) areas[i] += areas[i - 1];
+  return areas;
+}
+
+// Point on face `face` of the box [0,s] at uv.
+static vec3f box_face_point(vec3f s, int face, vec2f uv) {
+  auto axis = face / 2, u = (axis + 1) % 3, v = (axis + 2) % 3;
+  auto p    = vec3f{};
+  at(p, axis) = (face % 2) ? at(s, axis) : 0;
+  at(p, u)    = uv.x * at(s, u);
+  at(p, v)    = uv.y * at(s, v);
+  return p;
+}
+
+// Environment texel cdf weighted by max(texel) * sin(theta) (Yocto/GL).
+static void make_environment_cdf(const image_data& image, trace_light& light) {
+  light.width  = image.width;
+  light.height = image.height;
+  light.cdf.resize((size_t)image.width * image.height);
+  auto total = 0.0f;
+  for (auto j = 0; j < image.height; j++) {
+    auto sin_theta = std::sin((j + 0.5f) * pif / image.height);
+    for (auto i = 0; i < image.width; i++) {
+      auto texel = pixel(image, i, j);
+      total += std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
+      light.cdf[(size_t)j * image.width + i] = total;
+    }
+  }
+}
+
+lights_data make_lights(const scene_data& scene, const accel_data& accel) {
+  auto lights = lights_data{};
+  for (auto i = 0; i < (int)accel.objects.size(); i++) {
+    auto& object = accel.objects[i];
+    if (object.material < 0 || object.material >= (int)scene.materials.size())
+      continue;
+    if (max(scene.materials[object.material].emission) <= 0) continue;
+    if (object.kind != object_kind::function || object.program->nodes.size() != 1)
+      continue;
+    if (!is_rigid(object.local_from_world)) continue;
+    auto& node  = object.program->nodes[0];
+    auto  light = trace_light{};
+    light.object = i;
+    if (node.type == sdf_type::box) {
+      light.shape = light_shape::box;
+      light.cdf   = box_faces_cdf(node.size);
+      light.area  = light.cdf.back();
+    } else if (node.type == sdf_type::sphere) {
+      light.shape = light_shape::sphere;
+      light.area  = 4 * pif * node.radius * node.radius;
+    } else {
+      continue;
+    }
+    if (light.area <= 0) continue;
+    lights.lights.push_back(light);
+  }
+  for (auto i = 0; i < (int)scene.environments.size(); i++) {
+    auto& environment = scene.environments[i];
+    if (max(environment.emission) <= 0) continue;
+    auto light        = trace_light{};
+    light.shape       = light_shape::environment;
+    light.environment = i;
+    auto texture      = environment.emission_tex;
+    if (texture >= 0 && texture < (int)scene.textures.size()) {
+      make_environment_cdf(scene.textures[texture].image, light);
+      if (light.cdf.back() <= 0) continue;
+    }
+    lights.lights.push_back(light);
+  }
+  return lights;
+}
+
+// -----------------------------------------------------------------------------
+// SAMPLING
+// -----------------------------------------------------------------------------
+
+// Direction in an environment's frame for texture coordinates uv.
+static vec3f environment_direction(vec2f uv) {
+  auto phi = 2 * pif * uv.x, theta = pif * uv.y;
+  return {std::cos(phi) * std::sin(theta), std::cos(theta),
+      std::sin(phi) * std::sin(theta)};
+}
+
+vec3f sample_lights(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, vec3f position, float rl, float rel, vec2f ruv) {
+  if (lights.lights.empty()) return {0, 0, 0};
+  auto& light = lights.lights[sample_uniform((int)lights.lights.size(), rl)];
+  switch (light.shape) {
+    case light_shape::box: {
+      auto& object = accel.objects[light.object];
+      auto  size   = object.program->nodes[0].size;
+      auto  face   = sample_discrete(light.cdf, rel);
+      auto  p      = transform_point(
+          object.world_from_local, box_face_point(size, face, ruv));
+      return normalize(p - position);
+    }
+    case light_shape::sphere: {
+      auto& object = accel.objects[light.object];
+      auto  radius = object.program->nodes[0].radius;
+      auto  p = transform_point(object.world_from_local, sample_sphere(ruv) * radius);
+      return normalize(p - position);
+    }
+    case light_shape::environment: {
+      auto& environment = scene.environments[light.environment];
+      if (light.cdf.empty())
+        return transform_direction(environment.frame, sample_sphere(ruv));
+      auto idx = sample_discrete(light.cdf, rel);
+      auto uv  = vec2f{((idx % light.width) + ruv.x) / light.width,
+          ((idx / light.width) + ruv.y) / light.height};
+      return transform_direction(environment.frame, environment_direction(uv));
+    }
+  }
+  return {0, 0, 0};
+}
+
+// Area-to-solid-angle pdf of the points where the ray crosses a shape light:
+// sum of t^2 / (|cos| area) over the crossings in front of `position`.
+static float shape_light_pdf(
+    const trace_object& object, const trace_light& light, const ray3f& world) {
+  auto  ray  = transform_ray(object.local_from_world, world);
+  auto& node = object.program->nodes[0];
+  auto  pdf  = 0.0f;
+  auto  add  = [&](float t, vec3f normal) {
+    if (t <= 0) return;
+    auto cosine = std::abs(dot(normal, ray.d));
+    if (cosine > 0) pdf += t * t / (cosine * light.area);
+  };
+  if (light.shape == light_shape::box) {
+    auto box = bbox3f{{0, 0, 0}, node.size};
+    auto t0 = 0.0f, t1 = 0.0f;
+    auto unclipped = ray3f{ray.o, ray.d, flt_min, flt_max};
+    if (!intersect_bbox(unclipped, box, t0, t1)) return 0;
+    for (auto t : {t0, t1}) {
+      // The face is the axis where the point sits closest to a side.
+      auto p = ray_point(ray, t), q = abs(p - node.size * 0.5f) - node.size * 0.5f;
+      auto axis = (q.x > q.y && q.x > q.z) ? 0 : (q.y > q.z ? 1 : 2);
+      auto n    = vec3f{};
+      at(n, axis) = 1;
+      add(t, n);
+    }
+  } else {
+    auto a = dot(ray.d, ray.d), b = dot(ray.o, ray.d);
+    auto l    = ray.o - ray.d * (b / a);
+    auto disc = node.radius * node.radius - dot(l, l);
+    if (disc < 0) return 0;
+    auto h = std::sqrt(disc / a);
+    for (auto t : {-b / a - h, -b / a + h}) add(t, normalize(ray_point(ray, t)));
+  }
+  return pdf;
+}
+
+float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, vec3f position, vec3f direction) {
+  if (lights.lights.empty()) return 0;
+  auto pdf = 0.0f;
+  auto ray = ray3f{position, direction, 0, flt_max};
+  for (auto& light : lights.lights) {
+    switch (light.shape) {
+      case light_shape::box:
+      case light_shape::sphere:
+        pdf += shape_light_pdf(accel.objects[light.object], light, ray);
+        break;
+      case light_shape::environment: {
+        if (light.cdf.empty()) {
+          pdf += 1 / (4 * pif);
+          break;
+        }
+        auto& environment = scene.environments[light.environment];
+        auto  wl = transform_direction(inverse(environment.frame), direction);
+        auto  u  = std::atan2(wl.z, wl.x) / (2 * pif);
+        if (u < 0) u += 1;
+        auto theta = std::acos(clamp(wl.y, -1.0f, 1.0f));
+        auto i     = clamp((int)(u * light.width), 0, light.width - 1);
+        auto j = clamp((int)(theta / pif * light.height), 0, light.height - 1);
+        auto prob = sample_discrete_pdf(light.cdf, j * light.width + i);
+        auto sin_theta = std::sin(theta);
+        if (sin_theta > 0)
+          pdf += prob * light.width * light.height /
+                 (2 * pif * pif * sin_theta);
+        break;
+      }
+    }
+  }
+  return pdf / lights.lights.size();
+}
+
+}  // namespace implicit

@@ -1,0 +1,251 @@
+// # implicit: rendering (implementation)
+
+#include "trace.h"
+
+#include <tbb/blocked_range2d.h>
+#include <tbb/parallel_for.h>
+
+#include "../math/sampling.h"
+#include "shading.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// SURFACE POINTS
+// -----------------------------------------------------------------------------
+
+// What the shaders need at a hit.
+struct surface_point {
+  vec3f          position = {0, 0, 0};
+  vec3f          normal   = {0, 0, 1};
+  float          epsilon  = 0;  // hit threshold, for spawning rays
+  material_point material = {};
+};
+
+static surface_point eval_surface(const scene_data& scene,
+    const accel_data& accel, const ray3f& ray, const scene_intersection& isec) {
+  auto  point    = surface_point{};
+  auto& object   = accel.objects[isec.object];
+  point.position = ray_point(ray, isec.distance);
+  point.epsilon  = isec.epsilon;
+  point.normal   = eval_object_normal(object, point.position, isec.epsilon * 0.5f);
+  if (object.material >= 0 && object.material < (int)scene.materials.size())
+    point.material = make_material_point(scene.materials[object.material]);
+  return point;
+}
+
+// Start of a ray leaving a surface point toward `direction`: pushed off the
+// surface on that side by more than the hit threshold, so that the march does
+// not stop at its own origin (no acne).
+static ray3f spawn_ray(
+    const accel_data& accel, const surface_point& point, vec3f direction) {
+  auto offset = 2 * point.epsilon + 2 * accel.hit_min;
+  auto side   = dot(point.normal, direction) >= 0 ? 1.0f : -1.0f;
+  return {point.position + point.normal * (offset * side), direction, 0, flt_max};
+}
+
+// Environment seen along a ray that left the scene.
+static vec3f eval_background(const scene_data& scene, vec3f direction) {
+  return eval_environment(scene, direction);
+}
+
+// -----------------------------------------------------------------------------
+// SHADERS
+// -----------------------------------------------------------------------------
+
+// Path tracer with the seed's one-sample MIS: each bounce samples the BSDF or
+// the lights (50/50) and weights by the mixture pdf; emission is collected
+// where the path lands, so emitters that cannot be sampled are still found.
+static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const ray3f& camera_ray,
+    const trace_params& params, rng_state& rng, int64_t& evaluations) {
+  auto radiance = vec3f{0, 0, 0};
+  auto weight   = vec3f{1, 1, 1};
+  auto ray      = camera_ray;
+  auto hit      = false;
+  auto use_lights = params.implicit_mis && !lights.lights.empty();
+  auto opacity_skips = 0;
+  for (auto bounce = 0; bounce < params.bounces; bounce++) {
+    auto isec = intersect_scene(accel, ray);
+    evaluations += isec.evaluations;
+    if (!isec.hit) {
+      if (bounce > 0 || !params.envhidden)
+        radiance += weight * eval_background(scene, ray.d);
+      break;
+    }
+    auto point    = eval_surface(scene, accel, ray, isec);
+    auto outgoing = -ray.d;
+    auto& material = point.material;
+
+    // Opacity: continue straight through (bounded, as Yocto does).
+    if (material.opacity < 1 && rand1f(rng) >= material.opacity) {
+      if (opacity_skips++ > 128) break;
+      ray = spawn_ray(accel, point, ray.d);
+      bounce--;
+      continue;
+    }
+    if (bounce == 0) hit = true;
+
+    radiance += weight * eval_emission(material, point.normal, outgoing);
+
+    auto incoming = vec3f{0, 0, 0};
+    if (!is_delta(material)) {
+      if (!use_lights || rand1f(rng) < 0.5f) {
+        incoming = sample_bsdfcos(
+            material, point.normal, outgoing, rand1f(rng), rand2f(rng));
+      } else {
+        incoming = sample_lights(scene, accel, lights, point.position,
+            rand1f(rng), rand1f(rng), rand2f(rng));
+      }
+      if (incoming == vec3f{0, 0, 0}) break;
+      auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
+      if (use_lights)
+        pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(scene, accel, lights,
+                                      point.position, incoming);
+      if (pdf <= 0) break;
+      weight *= eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
+    } else {
+      incoming = sample_delta(material, point.normal, outgoing, rand1f(rng));
+      if (incoming == vec3f{0, 0, 0}) break;
+      auto pdf = sample_delta_pdf(material, point.normal, outgoing, incoming);
+      if (pdf <= 0) break;
+      weight *= eval_delta(material, point.normal, outgoing, incoming) / pdf;
+    }
+    if (max(weight) <= 0 || !isfinite(weight)) break;
+
+    // Russian roulette after a few bounces.
+    if (bounce > 3) {
+      auto survive = std::min(0.99f, max(weight));
+      if (rand1f(rng) >= survive) break;
+      weight /= survive;
+    }
+    ray = spawn_ray(accel, point, incoming);
+  }
+  return {radiance.x, radiance.y, radiance.z, hit ? 1.0f : 0.0f};
+}
+
+// Colour ramp for the steps heat map: blue (few) -> red (many), log scale.
+static vec3f heat_color(float value) {
+  auto v = clamp(value, 0.0f, 1.0f);
+  return {clamp(2 * v - 0.5f, 0.0f, 1.0f), clamp(1 - std::abs(2 * v - 1), 0.0f, 1.0f),
+      clamp(1.5f - 2 * v, 0.0f, 1.0f)};
+}
+
+// Debug shaders: one intersection, a value of the first hit.
+static vec4f shade_debug(const scene_data& scene, const accel_data& accel,
+    const ray3f& ray, const trace_params& params, int64_t& evaluations) {
+  auto isec = intersect_scene(accel, ray);
+  evaluations += isec.evaluations;
+  if (params.shader == shader_type::steps) {
+    auto scale = std::log2(1.0f + (float)params.march.max_iterations);
+    auto color = heat_color(std::log2(1.0f + isec.evaluations) / scale);
+    return {color.x, color.y, color.z, 1};
+  }
+  if (!isec.hit) return {0, 0, 0, 0};
+  auto point    = eval_surface(scene, accel, ray, isec);
+  auto outgoing = -ray.d;
+  auto color    = vec3f{0, 0, 0};
+  switch (params.shader) {
+    case shader_type::implicit_normal:
+    case shader_type::normal: color = point.normal * 0.5f + 0.5f; break;
+    case shader_type::position: color = point.position; break;
+    case shader_type::color: color = point.material.color; break;
+    case shader_type::frontfacing:
+      color = dot(point.normal, outgoing) >= 0 ? vec3f{0, 1, 0} : vec3f{1, 0, 0};
+      break;
+    case shader_type::material: {
+      // A distinct hue per material index.
+      auto h = std::fmod(accel.objects[isec.object].material * 0.618034f, 1.0f);
+      color  = heat_color(h);
+      break;
+    }
+    case shader_type::eyelight: {
+      auto& material = point.material;
+      color = eval_emission(material, point.normal, outgoing);
+      if (!is_delta(material))
+        color += pif * eval_bsdfcos(material, point.normal, outgoing, outgoing);
+      break;
+    }
+    case shader_type::implicit:
+    case shader_type::steps: break;
+  }
+  return {color.x, color.y, color.z, 1};
+}
+
+bool is_lit_shader(shader_type shader) { return shader == shader_type::implicit; }
+
+// -----------------------------------------------------------------------------
+// RENDERING
+// -----------------------------------------------------------------------------
+
+trace_state make_state(const scene_data& scene, const trace_params& params) {
+  auto  state  = trace_state{};
+  auto& camera = scene.cameras.at(params.camera);
+  auto  size   = camera_resolution(camera, params.resolution);
+  state.width  = size.x;
+  state.height = size.y;
+  auto count   = (size_t)state.width * state.height;
+  state.accumulated.assign(count, {0, 0, 0, 0});
+  state.evaluations.assign(count, 0);
+  state.rngs.resize(count);
+  // One stream per pixel, seeded in pixel order: independent of threads.
+  auto master = make_rng(1301081);
+  for (auto& rng : state.rngs)
+    rng = make_rng(params.seed, (uint64_t)(rand1i(master, 1 << 30) + 1));
+  return state;
+}
+
+// Offset inside a pixel for a tent filter of width 2 pixels (Yocto/GL).
+static float tent_offset(float r) {
+  return r < 0.5f ? std::sqrt(2 * r) - 1 : 1 - std::sqrt(2 - 2 * r);
+}
+
+vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const trace_params& params, int i, int j,
+    int width, int height, rng_state& rng, int64_t& evaluations) {
+  auto& camera = scene.cameras[params.camera];
+  auto  puv    = rand2f(rng);
+  if (params.tentfilter)
+    puv = vec2f{tent_offset(puv.x), tent_offset(puv.y)} + vec2f{0.5f, 0.5f};
+  auto uv  = vec2f{(i + puv.x) / width, (j + puv.y) / height};
+  auto ray = eval_camera(camera, uv, sample_disk(rand2f(rng)));
+  auto color = params.shader == shader_type::implicit
+                   ? shade_implicit(scene, accel, lights, ray, params, rng, evaluations)
+                   : shade_debug(scene, accel, ray, params, evaluations);
+  auto rgb = xyz(color);
+  if (!isfinite(rgb)) rgb = {0, 0, 0};
+  if (max(rgb) > params.clamp) rgb = rgb * (params.clamp / max(rgb));
+  // Without envhidden the environment counts as coverage.
+  auto alpha = color.w;
+  if (params.shader == shader_type::implicit && !params.envhidden &&
+      !scene.environments.empty())
+    alpha = 1;
+  return {rgb.x, rgb.y, rgb.z, alpha};
+}
+
+void trace_samples(trace_state& state, const scene_data& scene,
+    const accel_data& accel, const lights_data& lights,
+    const trace_params& params) {
+  auto range = tbb::blocked_range2d<int>(0, state.height, 16, 0, state.width, 16);
+  tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& tile) {
+    for (auto j = tile.rows().begin(); j < tile.rows().end(); j++) {
+      for (auto i = tile.cols().begin(); i < tile.cols().end(); i++) {
+        auto idx = (size_t)j * state.width + i;
+        state.accumulated[idx] += trace_pixel(scene, accel, lights, params, i,
+            j, state.width, state.height, state.rngs[idx], state.evaluations[idx]);
+      }
+    }
+  });
+  state.samples += 1;
+}
+
+image_data get_render(const trace_state& state) {
+  auto image = make_image(state.width, state.height);
+  if (state.samples == 0) return image;
+  auto scale = 1.0f / state.samples;
+  for (size_t idx = 0; idx < image.pixels.size(); idx++)
+    image.pixels[idx] = state.accumulated[idx] * scale;
+  return image;
+}
+
+}  // namespace implicit
