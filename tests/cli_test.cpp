@@ -1,0 +1,134 @@
+// End-to-end tests of the ypathtrace command: options, errors, outputs.
+
+#include <doctest/doctest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "image/image_io.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct command_result {
+  int         status = -1;
+  std::string output = "";  // stdout and stderr together
+};
+
+std::string ypathtrace_path() {
+  auto env = std::getenv("IMPLICIT_YPATHTRACE");
+  return env ? env : std::string{IMPLICIT_BINARY_DIR} + "/ypathtrace";
+}
+
+// Run ypathtrace with arguments (already quoted where needed).
+command_result run_ypathtrace(const std::string& arguments) {
+  auto command = ypathtrace_path() + " " + arguments + " 2>&1";
+  auto result  = command_result{};
+  auto pipe    = popen(command.c_str(), "r");
+  REQUIRE(pipe != nullptr);
+  char buffer[4096];
+  while (auto n = fread(buffer, 1, sizeof(buffer), pipe))
+    result.output.append(buffer, n);
+  auto status   = pclose(pipe);
+  result.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+std::string example_scene() {
+  return std::string{IMPLICIT_SOURCE_DIR} + "/examples/sdfunction/sdfunction.json";
+}
+
+// A fresh directory for one test's files.
+fs::path test_dir(const std::string& name) {
+  auto dir = fs::path{IMPLICIT_BINARY_DIR} / "test_outputs" / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+}  // namespace
+
+TEST_CASE("cli: help prints usage and succeeds") {
+  auto result = run_ypathtrace("--help");
+  CHECK(result.status == 0);
+  CHECK(result.output.find("--scene") != std::string::npos);
+  CHECK(result.output.find("--stmaxiter") != std::string::npos);
+}
+
+TEST_CASE("cli: bad options and values fail with a one-line reason") {
+  auto dir = test_dir("cli_bad");
+  auto out = (dir / "out.png").string();
+  for (auto args : {std::string{"--bogus"}, std::string{"--samples 0"},
+           std::string{"--samples abc"}, std::string{"--resolution -5"},
+           std::string{"--shader nope"}, std::string{"--accel fast"},
+           std::string{"--clamp -1"}, std::string{"--output out.gif"},
+           std::string{"--stmaxiter 0"}}) {
+    auto result = run_ypathtrace("--scene " + example_scene() + " " + args +
+                                 (args.find("--output") == std::string::npos ? " --output " + out : ""));
+    INFO(args, " -> ", result.output);
+    CHECK(result.status != 0);
+    CHECK(result.output.rfind("ypathtrace: error:", 0) == 0);
+    CHECK(!fs::exists(out));
+  }
+  auto shader = run_ypathtrace("--shader nope");
+  CHECK(shader.output.find("implicit_normal") != std::string::npos);  // lists valid names
+}
+
+TEST_CASE("cli: missing or broken scene fails without output") {
+  auto dir    = test_dir("cli_scene");
+  auto out    = (dir / "out.png").string();
+  auto result = run_ypathtrace("--scene " + (dir / "missing.json").string() + " --output " + out);
+  CHECK(result.status == 1);
+  CHECK(result.output.find("missing.json") != std::string::npos);
+  CHECK(!fs::exists(out));
+  auto broken = dir / "broken.json";
+  std::ofstream(broken) << "{ \"asset\": { \"version\": \"4.2\" }, \"sdfunctions\": [ { \"type\": \"sphere\", ";
+  result = run_ypathtrace("--scene " + broken.string() + " --output " + out);
+  CHECK(result.status == 1);
+  CHECK(result.output.find("broken.json") != std::string::npos);
+  CHECK(!fs::exists(out));
+  // Only the error line: no partial image, no temporary files left.
+  CHECK(fs::is_empty(dir / "..") == false);
+  auto files = 0;
+  for (auto& entry : fs::directory_iterator(dir)) files += entry.path() != broken;
+  CHECK(files == 0);
+}
+
+TEST_CASE("cli: renders the example in every output format") {
+  auto dir = test_dir("cli_render");
+  for (auto ext : {".png", ".jpg", ".hdr", ".exr"}) {
+    auto out    = (dir / (std::string{"example"} + ext)).string();
+    auto result = run_ypathtrace("--scene " + example_scene() + " --output " + out +
+                                 " --resolution 48 --samples 2 --quiet");
+    INFO(result.output);
+    REQUIRE(result.status == 0);
+    auto image = implicit::load_image(out);
+    CHECK(image.width == 48);
+    CHECK(image.height == 20);
+  }
+}
+
+TEST_CASE("cli: a scene without lights falls back to eyelight") {
+  auto dir   = test_dir("cli_nolights");
+  auto scene = dir / "dark.json";
+  std::ofstream(scene) << R"({
+    "asset": {"version": "4.2"},
+    "materials": [{"name": "white", "color": [0.8, 0.8, 0.8]}],
+    "sdfunctions": [{"name": "ball", "type": "sphere", "radius": 1, "material": 0,
+                     "frame": [1,0,0, 0,1,0, 0,0,1, 0,0,0]}]
+  })";
+  auto out    = (dir / "dark.png").string();
+  auto result = run_ypathtrace("--scene " + scene.string() + " --output " + out +
+                               " --resolution 32 --samples 2");
+  INFO(result.output);
+  CHECK(result.status == 0);
+  CHECK(result.output.find("no lights") != std::string::npos);
+  auto image = implicit::load_image(out);
+  // The ball is lit by the eye light: the centre is bright.
+  CHECK(implicit::pixel(image, 16, 9).x > 0.3f);
+}
