@@ -164,8 +164,8 @@ static image_data load_hdr(const std::string& filename) {
   return image;
 }
 
-// Load an OpenEXR file as float RGBA. A missing alpha reads as 1; a
-// luminance-only file (channel Y) is read as grey.
+// Load an OpenEXR file as float RGBA. Missing colour channels read as 0 and
+// a missing alpha as 1; a luminance-only file (channel Y) is read as grey.
 static image_data load_exr(const std::string& filename) {
   // Open it once ourselves for a clear message on missing or empty files.
   open_for_reading(filename);
@@ -178,8 +178,18 @@ static image_data load_exr(const std::string& filename) {
       throw_io_error(filename, "image is empty or too large");
     auto  image    = make_image((int)width, (int)height);
     auto& channels = file.header().channels();
-    auto  grey     = channels.findChannel("R") == nullptr &&
-                channels.findChannel("Y") != nullptr;
+    auto  has      = [&](const char* name) {
+      return channels.findChannel(name) != nullptr;
+    };
+    auto grey = !has("R") && !has("G") && !has("B") && has("Y");
+    // Without any colour channel the image would silently read as black.
+    if (!has("R") && !has("G") && !has("B") && !has("Y")) {
+      auto found = std::string{};
+      for (auto it = channels.begin(); it != channels.end(); ++it)
+        found += (found.empty() ? "" : ", ") + std::string(it.name());
+      throw_io_error(
+          filename, "no R, G, B or Y channel (found: " + found + ")");
+    }
     // The slices read straight into the interleaved vec4f pixels; OpenEXR
     // converts half/uint channels to float and fills absent ones.
     auto base    = (char*)image.pixels.data();

@@ -63,6 +63,11 @@ static image_data make_gradient(int width, int height) {
   return image;
 }
 
+// Exact comparison of all four channels.
+static bool equal_pixels(vec4f a, vec4f b) {
+  return a.x == b.x && a.y == b.y && a.z == b.z && a.w == b.w;
+}
+
 // Write raw bytes to a file.
 static void write_bytes(const std::string& filename, const std::string& bytes) {
   auto stream = std::ofstream(filename, std::ios::binary);
@@ -205,6 +210,48 @@ TEST_CASE("image io exr round trip is exact") {
     CHECK(a.z == b.z);
     CHECK(a.w == b.w);
   }
+}
+
+// Rename channels in an EXR header written by save_image: each name is
+// followed by its pixel type (FLOAT = 2), so "R\0\2\0\0\0" is channel R.
+static std::string rename_exr_channels(
+    std::string bytes, const std::string& from, const std::string& to) {
+  auto list = bytes.find(std::string("chlist\0", 7));
+  REQUIRE(list != std::string::npos);
+  for (size_t c = 0; c < from.size(); c++) {
+    auto entry = std::string{from[c], '\0', '\2', '\0', '\0', '\0'};
+    auto at    = bytes.find(entry, list);
+    REQUIRE(at != std::string::npos);
+    bytes[at] = to[c];
+  }
+  return bytes;
+}
+
+TEST_CASE("image io exr channels") {
+  auto dir     = make_test_dir("exr_channels");
+  auto image   = make_image(2, 1);
+  image.pixels = {{0.5f, 0.25f, 0.125f, 0.75f}, {2, 3, 4, 5}};
+  save_image(dir + "/rgba.exr", image);
+  auto bytes = read_bytes(dir + "/rgba.exr");
+  // Luminance only (A, X, Y, Z: the old G is now Y): grey from Y.
+  write_bytes(dir + "/grey.exr", rename_exr_channels(bytes, "BGR", "XYZ"));
+  auto grey = load_image(dir + "/grey.exr");
+  REQUIRE(grey.pixels.size() == 2);
+  CHECK(equal_pixels(grey.pixels[0], {0.25f, 0.25f, 0.25f, 0.75f}));
+  CHECK(equal_pixels(grey.pixels[1], {3, 3, 3, 5}));
+  // R missing but G and B there: the colour file reads R as 0, not grey.
+  write_bytes(dir + "/no_red.exr", rename_exr_channels(bytes, "R", "Y"));
+  auto no_red = load_image(dir + "/no_red.exr");
+  CHECK(equal_pixels(no_red.pixels[0], {0, 0.25f, 0.125f, 0.75f}));
+  // No alpha (A renamed to a channel we do not read): alpha is 1.
+  write_bytes(dir + "/rgb.exr", rename_exr_channels(bytes, "A", "0"));
+  auto rgb = load_image(dir + "/rgb.exr");
+  CHECK(equal_pixels(rgb.pixels[0], {0.5f, 0.25f, 0.125f, 1}));
+  // No colour at all is an error, not a black image.
+  auto none = dir + "/none.exr";
+  write_bytes(none, rename_exr_channels(bytes, "BGR", "STU"));
+  CHECK(error_of([&] { load_image(none); }) ==
+        none + ": no R, G, B or Y channel (found: A, S, T, U)");
 }
 
 TEST_CASE("image io save replaces an existing file") {
