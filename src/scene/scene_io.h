@@ -6,16 +6,26 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "scene.h"
 
 namespace implicit {
 
 // Load a scene, its textures and its grids (paths relative to the scene).
+// Problems that do not stop the load (e.g. a material naming a texture that
+// does not exist, as the seed scenes do) are appended to `warnings`, each
+// formatted like an error; the overload without it drops them.
 scene_data load_scene(const std::string& filename);
+scene_data load_scene(
+    const std::string& filename, std::vector<std::string>& warnings);
 
 // Parse a scene from JSON text; `filename` names it in errors and anchors
-// relative paths. Files referenced by the scene are loaded.
+// relative paths. The whole JSON is validated first; then, when `load_files`
+// is true, the grids and textures it references are loaded (with false they
+// stay empty: for checking a file, and for tests).
 scene_data parse_scene(const std::string& text, const std::string& filename);
+scene_data parse_scene(const std::string& text, const std::string& filename,
+    std::vector<std::string>& warnings, bool load_files = true);
 
 }  // namespace implicit

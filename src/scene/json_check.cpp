@@ -1,0 +1,329 @@
+// # implicit: checked JSON reading (implementation)
+
+#include "json_check.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <set>
+
+#include "../util/error.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// PLACES AND ERRORS
+// -----------------------------------------------------------------------------
+
+std::string json_message(const json_place& place, const std::string& key,
+    const std::string& problem) {
+  auto where = place.path;
+  if (!key.empty()) where += (where.empty() ? "" : ".") + key;
+  auto message = place.filename + ": ";
+  if (!where.empty()) message += where + ": ";
+  return message + problem;
+}
+
+void throw_json_error(const json_place& place, const std::string& key,
+    const std::string& problem) {
+  throw io_error(json_message(place, key, problem));
+}
+
+json_place json_child(const json_place& place, const std::string& key) {
+  return {place.filename, place.path.empty() ? key : place.path + "." + key};
+}
+
+json_place json_element(
+    const json_place& place, size_t index, const json& element) {
+  auto path = place.path + "[" + std::to_string(index) + "]";
+  // The name makes long arrays readable; a name of the wrong type is
+  // reported later by the reader of `name`.
+  if (element.is_object()) {
+    auto it = element.find("name");
+    if (it != element.end() && it->is_string())
+      path += " (\"" + it->get<std::string>() + "\")";
+  }
+  return {place.filename, path};
+}
+
+std::string json_type_name(const json& value) {
+  switch (value.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::boolean: return "a boolean";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+    case json::value_t::number_float: return "a number";
+    case json::value_t::string: return "a string";
+    case json::value_t::array: return "an array";
+    case json::value_t::object: return "an object";
+    case json::value_t::binary: return "binary data";
+    case json::value_t::discarded: return "nothing";
+  }
+  return "an unknown value";
+}
+
+std::string join_names(const std::vector<std::string>& names) {
+  auto joined = std::string{};
+  for (auto& name : names) joined += (joined.empty() ? "" : ", ") + name;
+  return joined;
+}
+
+// -----------------------------------------------------------------------------
+// PARSING
+// -----------------------------------------------------------------------------
+
+vec2i json_line_column(const std::string& text, size_t offset) {
+  offset      = std::min(offset, text.size());
+  auto line   = 1 + (int)std::count(text.begin(), text.begin() + offset, '\n');
+  auto before = offset == 0 ? std::string::npos : text.rfind('\n', offset - 1);
+  auto start  = before == std::string::npos ? 0 : before + 1;
+  return {line, (int)(offset - start) + 1};
+}
+
+// An open object or array while parsing, to name the place of a duplicate
+// key: the object's current key or the array's current element.
+struct json_scope {
+  bool                  is_object = false;
+  std::string           key       = "";
+  size_t                index     = 0;
+  std::set<std::string> keys      = {};
+};
+
+// Path of the innermost scope's parent values, e.g. `sdfunctions[0]`.
+static std::string scope_path(const std::vector<json_scope>& scopes) {
+  auto path = std::string{};
+  for (size_t i = 0; i + 1 < scopes.size(); i++) {
+    auto& scope = scopes[i];
+    if (scope.is_object) {
+      path += (path.empty() ? "" : ".") + scope.key;
+    } else {
+      path += "[" + std::to_string(scope.index) + "]";
+    }
+  }
+  // The innermost scope is an object whose key is the duplicate; an array
+  // scope never reports, so it adds nothing here.
+  return path;
+}
+
+json parse_json(const std::string& text, const std::string& filename) {
+  // nlohmann keeps the last of repeated keys; a scene with two `radius` keys
+  // is a mistake, so a parse callback tracks the keys of each open object.
+  auto scopes       = std::vector<json_scope>{};
+  auto element_done = [&scopes]() {
+    if (!scopes.empty() && !scopes.back().is_object) scopes.back().index++;
+  };
+  auto callback = [&](int, json::parse_event_t event, json& parsed) {
+    switch (event) {
+      case json::parse_event_t::object_start:
+        scopes.push_back({true, "", 0, {}});
+        break;
+      case json::parse_event_t::array_start:
+        scopes.push_back({false, "", 0, {}});
+        break;
+      case json::parse_event_t::key: {
+        auto& scope = scopes.back();
+        auto  key   = parsed.get<std::string>();
+        if (!scope.keys.insert(key).second)
+          throw_json_error({filename, scope_path(scopes)}, key,
+              "duplicate key (each key may appear once per object)");
+        scope.key = key;
+        break;
+      }
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        scopes.pop_back();
+        element_done();
+        break;
+      case json::parse_event_t::value: element_done(); break;
+    }
+    return true;
+  };
+  try {
+    return json::parse(text, callback);
+  } catch (const json::parse_error& error) {
+    // nlohmann's byte is 1-based and points at the last character read.
+    auto position = json_line_column(text, error.byte > 0 ? error.byte - 1 : 0);
+    // Keep nlohmann's description, dropping its id and position prefix.
+    auto what    = std::string{error.what()};
+    auto problem = what;
+    auto start   = what.find("parse error");
+    if (start != std::string::npos) start = what.find(": ", start);
+    if (start != std::string::npos) problem = what.substr(start + 2);
+    throw io_error(filename + ":" + std::to_string(position.x) + ":" +
+        std::to_string(position.y) + ": invalid JSON: " + problem);
+  } catch (const json::exception& error) {
+    // Numbers beyond double range (1e999) are out_of_range errors without a
+    // position; the message quotes the number, so look for it in the text.
+    auto what    = std::string{error.what()};
+    auto id_end  = what.find("] ");
+    auto problem = id_end == std::string::npos ? what : what.substr(id_end + 2);
+    auto first = what.find('\''), last = what.rfind('\'');
+    if (first != std::string::npos && last > first + 1) {
+      auto token  = what.substr(first + 1, last - first - 1);
+      auto offset = text.find(token);
+      // Skip matches inside a longer number (1e999 inside 21e999).
+      while (offset != std::string::npos && offset > 0 &&
+          std::string{"0123456789.-+eE"}.find(text[offset - 1]) !=
+              std::string::npos)
+        offset = text.find(token, offset + 1);
+      if (offset != std::string::npos) {
+        auto position = json_line_column(text, offset);
+        throw io_error(filename + ":" + std::to_string(position.x) + ":" +
+            std::to_string(position.y) + ": invalid JSON: " + problem);
+      }
+    }
+    throw io_error(filename + ": invalid JSON: " + problem);
+  }
+}
+
+// -----------------------------------------------------------------------------
+// TYPED READING
+// -----------------------------------------------------------------------------
+
+// A JSON number as a finite float; `key` names it in errors.
+static float json_to_float(
+    const json_place& place, const std::string& key, const json& value) {
+  if (!value.is_number())
+    throw_json_error(
+        place, key, "expected a number, found " + json_type_name(value));
+  auto number = value.get<double>();
+  if (!std::isfinite(number)) throw_json_error(place, key, "must be finite");
+  // Checked before the cast: converting an out-of-range double to float is
+  // undefined behaviour.
+  if (std::abs(number) > (double)flt_max)
+    throw_json_error(place, key, "out of float range (" + value.dump() + ")");
+  return (float)number;
+}
+
+// Read a fixed-size array of finite numbers.
+static void json_to_floats(const json_place& place, const std::string& key,
+    const json& value, float* numbers, size_t count) {
+  auto expected = "an array of " + std::to_string(count) + " numbers";
+  if (!value.is_array())
+    throw_json_error(place, key,
+        "expected " + expected + ", found " + json_type_name(value));
+  if (value.size() != count)
+    throw_json_error(place, key,
+        "expected " + expected + ", found " + std::to_string(value.size()) +
+            (value.size() == 1 ? " value" : " values"));
+  for (size_t i = 0; i < count; i++)
+    numbers[i] =
+        json_to_float(place, key + "[" + std::to_string(i) + "]", value[i]);
+}
+
+bool read_json(const json_place& place, const json& js, const std::string& key,
+    std::string& value) {
+  auto it = js.find(key);
+  if (it == js.end()) return false;
+  if (!it->is_string())
+    throw_json_error(
+        place, key, "expected a string, found " + json_type_name(*it));
+  value = it->get<std::string>();
+  return true;
+}
+
+bool read_json(const json_place& place, const json& js, const std::string& key,
+    bool& value) {
+  auto it = js.find(key);
+  if (it == js.end()) return false;
+  if (!it->is_boolean())
+    throw_json_error(
+        place, key, "expected a boolean, found " + json_type_name(*it));
+  value = it->get<bool>();
+  return true;
+}
+
+bool read_json(const json_place& place, const json& js, const std::string& key,
+    float& value) {
+  auto it = js.find(key);
+  if (it == js.end()) return false;
+  value = json_to_float(place, key, *it);
+  return true;
+}
+
+bool read_json(const json_place& place, const json& js, const std::string& key,
+    int& value) {
+  auto it = js.find(key);
+  if (it == js.end()) return false;
+  if (it->is_number_unsigned()) {
+    auto number = it->get<unsigned long long>();
+    if (number > (unsigned long long)INT_MAX)
+      throw_json_error(place, key, "integer too large (" + it->dump() + ")");
+    value = (int)number;
+  } else if (it->is_number_integer()) {
+    auto number = it->get<long long>();
+    if (number < INT_MIN || number > INT_MAX)
+      throw_json_error(place, key, "integer too large (" + it->dump() + ")");
+    value = (int)number;
+  } else if (it->is_number_float()) {
+    // Writers that only have doubles emit 2.0; a fraction is a mistake.
+    auto number = it->get<double>();
+    if (!std::isfinite(number) || number != std::floor(number) ||
+        number < INT_MIN || number > INT_MAX)
+      throw_json_error(place, key, "expected an integer, found " + it->dump());
+    value = (int)number;
+  } else {
+    throw_json_error(
+        place, key, "expected an integer, found " + json_type_name(*it));
+  }
+  return true;
+}
+
+bool read_json(const json_place& place, const json& js, const std::string& key,
+    vec3f& value) {
+  auto it = js.find(key);
+  if (it == js.end()) return false;
+  float numbers[3];
+  json_to_floats(place, key, *it, numbers, 3);
+  value = {numbers[0], numbers[1], numbers[2]};
+  return true;
+}
+
+bool read_json(const json_place& place, const json& js, const std::string& key,
+    frame3f& value) {
+  auto it = js.find(key);
+  if (it == js.end()) return false;
+  float n[12];
+  json_to_floats(place, key, *it, n, 12);
+  value = {{n[0], n[1], n[2]}, {n[3], n[4], n[5]}, {n[6], n[7], n[8]},
+      {n[9], n[10], n[11]}};
+  return true;
+}
+
+const json* find_json_array(
+    const json_place& place, const json& js, const std::string& key) {
+  auto it = js.find(key);
+  if (it == js.end()) return nullptr;
+  if (!it->is_array())
+    throw_json_error(
+        place, key, "expected an array, found " + json_type_name(*it));
+  return &*it;
+}
+
+void check_json_object(const json_place& place, const json& value) {
+  if (!value.is_object())
+    throw_json_error(
+        place, "", "expected an object, found " + json_type_name(value));
+}
+
+void check_json_keys(const json_place& place, const json& js,
+    const std::vector<std::string>& valid, const std::string& context) {
+  for (auto& item : js.items()) {
+    if (std::find(valid.begin(), valid.end(), item.key()) != valid.end())
+      continue;
+    throw_json_error(place, item.key(),
+        "unknown key" + context + " (valid keys: " + join_names(valid) + ")");
+  }
+}
+
+int parse_json_enum(const json_place& place, const std::string& key,
+    const std::string& value, const std::vector<std::string>& names) {
+  auto it = std::find(names.begin(), names.end(), value);
+  if (it == names.end())
+    throw_json_error(place, key,
+        "unknown " + key + " \"" + value + "\" (valid " + key +
+            "s: " + join_names(names) + ")");
+  return (int)(it - names.begin());
+}
+
+}  // namespace implicit
