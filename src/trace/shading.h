@@ -14,13 +14,19 @@
 // - roughness is the GGX alpha (the material's roughness already squared).
 //
 // Deliberate differences from Yocto/GL 4.2, each marked where it happens:
-// - the rough refraction pdf has the factor rel_ior^2 of the half-vector
-//   Jacobian (Walter et al. 2007, eq. 17) that Yocto drops, so the pdf is the
-//   density of the directions that `sample_refractive` draws;
+// - rough refraction: the pdf has the factor rel_ior^2 of the half-vector
+//   Jacobian (Walter et al. 2007, eq. 17) that Yocto drops, and back-facing
+//   microfacets neither refract nor count in the pdf (as in pbrt-v4). Only
+//   then is the pdf the density of the directions `sample_refractive` draws
+//   (the chi-square test in shading_test.cpp rejects Yocto's pdf); the
+//   discarded samples have eval 0 in Yocto too;
 // - subsurface with roughness 0 is a delta refractive surface (Yocto makes it
 //   neither delta nor rough, so it renders black);
-// - directions exactly on the horizon (and the degenerate half vector of a
-//   rough interface with ior 1) give 0 instead of 0/0 = NaN.
+// - refractive and subsurface with ior 1 are the delta pass-through whatever
+//   their roughness (the rough lobe sends every refracted sample to exactly
+//   -outgoing, which no pdf describes);
+// - directions exactly on the horizon give 0 instead of 0/0 = NaN, and
+//   Fresnel terms are kept >= 0 against rounding.
 //
 // Everything here is inline, allocation-free and never throws.
 #pragma once
@@ -63,7 +69,8 @@ struct material_point {
 // roughness, z is metallic).
 inline material_point make_material_point(const material_data& material,
     vec4f color_texel = {1, 1, 1, 1}, vec4f emission_texel = {1, 1, 1, 1},
-    vec4f roughness_texel = {1, 1, 1, 1}, vec4f scattering_texel = {1, 1, 1, 1}) {
+    vec4f roughness_texel  = {1, 1, 1, 1},
+    vec4f scattering_texel = {1, 1, 1, 1}) {
   auto point         = material_point{};
   point.type         = material.type;
   point.emission     = material.emission * xyz(emission_texel);
@@ -114,13 +121,16 @@ inline bool is_delta(const material_point& material) {
   switch (material.type) {
     case material_type::matte:
     case material_type::glossy:
-    case material_type::gltfpbr: return false;
+    case material_type::gltfpbr:
+      return false;
     case material_type::reflective:
     case material_type::transparent:
     case material_type::refractive:
     // Not in Yocto 4.2, which leaves smooth subsurface black.
-    case material_type::subsurface: return material.roughness == 0;
-    case material_type::volumetric: return true;
+    case material_type::subsurface:
+      return material.roughness == 0;
+    case material_type::volumetric:
+      return true;
   }
   return false;
 }
@@ -184,20 +194,20 @@ inline vec3f fresnel_conductor(
     vec3f eta, vec3f etak, vec3f normal, vec3f outgoing) {
   auto cosw = dot(normal, outgoing);
   if (cosw <= 0) return {0, 0, 0};
-  cosw           = clamp(cosw, -1.0f, 1.0f);
-  auto cos2      = cosw * cosw;
-  auto sin2      = clamp(1 - cos2, 0.0f, 1.0f);
-  auto eta2      = eta * eta;
-  auto etak2     = etak * etak;
-  auto t0        = eta2 - etak2 - sin2;
-  auto a2plusb2  = sqrt(t0 * t0 + 4 * eta2 * etak2);
-  auto t1        = a2plusb2 + cos2;
-  auto a         = sqrt((a2plusb2 + t0) / 2);
-  auto t2        = 2 * a * cosw;
-  auto rs        = (t1 - t2) / (t1 + t2);
-  auto t3        = cos2 * a2plusb2 + sin2 * sin2;
-  auto t4        = t2 * sin2;
-  auto rp        = rs * (t3 - t4) / (t3 + t4);
+  cosw          = clamp(cosw, -1.0f, 1.0f);
+  auto cos2     = cosw * cosw;
+  auto sin2     = clamp(1 - cos2, 0.0f, 1.0f);
+  auto eta2     = eta * eta;
+  auto etak2    = etak * etak;
+  auto t0       = eta2 - etak2 - sin2;
+  auto a2plusb2 = sqrt(t0 * t0 + 4 * eta2 * etak2);
+  auto t1       = a2plusb2 + cos2;
+  auto a        = sqrt((a2plusb2 + t0) / 2);
+  auto t2       = 2 * a * cosw;
+  auto rs       = (t1 - t2) / (t1 + t2);
+  auto t3       = cos2 * a2plusb2 + sin2 * sin2;
+  auto t4       = t2 * sin2;
+  auto rp       = rs * (t3 - t4) / (t3 + t4);
   // rs and rp are squares, (a - cos)^2 / (a + cos)^2 and alike, but t1 - t2
   // rounds below 0 when eta ~ 1 and etak ~ 0 (a black conductor).
   return max((rp + rs) / 2, 0.0f);
@@ -348,8 +358,8 @@ inline vec3f sample_glossy(float ior, float roughness, vec3f normal,
 }
 
 // Pdf of sample_glossy.
-inline float sample_glossy_pdf(float ior, float roughness, vec3f normal,
-    vec3f outgoing, vec3f incoming) {
+inline float sample_glossy_pdf(
+    float ior, float roughness, vec3f normal, vec3f outgoing, vec3f incoming) {
   if (dot(normal, incoming) * dot(normal, outgoing) <= 0) return 0;
   auto up = up_normal(normal, outgoing);
   auto F  = fresnel_dielectric(ior, up, outgoing);
@@ -369,9 +379,9 @@ inline vec3f eval_reflective(vec3f color, float roughness, vec3f normal,
   auto up      = up_normal(normal, outgoing);
   auto halfway = normalize(incoming + outgoing);
   auto F       = fresnel_conductor(
-      reflectivity_to_eta(color), {0, 0, 0}, halfway, incoming);
-  return F * eval_microfacet_reflection(
-                 roughness, up, halfway, outgoing, incoming);
+            reflectivity_to_eta(color), {0, 0, 0}, halfway, incoming);
+  return F *
+         eval_microfacet_reflection(roughness, up, halfway, outgoing, incoming);
 }
 
 // GGX half-vector reflection.
@@ -454,8 +464,8 @@ inline vec3f sample_transparent(float ior, float roughness, vec3f normal,
 }
 
 // Pdf of sample_transparent (the mirror through the sheet keeps solid angle).
-inline float sample_transparent_pdf(float ior, float roughness, vec3f normal,
-    vec3f outgoing, vec3f incoming) {
+inline float sample_transparent_pdf(
+    float ior, float roughness, vec3f normal, vec3f outgoing, vec3f incoming) {
   if (on_horizon(normal, outgoing, incoming)) return 0;
   auto up = up_normal(normal, outgoing);
   if (dot(normal, incoming) * dot(normal, outgoing) >= 0) {
@@ -466,8 +476,7 @@ inline float sample_transparent_pdf(float ior, float roughness, vec3f normal,
     auto reflected = reflect(-incoming, up);
     auto halfway   = normalize(reflected + outgoing);
     return (1 - fresnel_dielectric(ior, halfway, outgoing)) *
-           sample_microfacet_reflection_pdf(
-               roughness, up, outgoing, reflected);
+           sample_microfacet_reflection_pdf(roughness, up, outgoing, reflected);
   }
 }
 
@@ -518,8 +527,8 @@ inline vec3f refraction_halfway(
 
 // Rough dielectric interface: white F-weighted GGX reflection and the
 // Walter 2007 (eq. 21) transmission, with the 1/rel_ior^2 radiance scaling.
-inline vec3f eval_refractive(float ior, float roughness, vec3f normal,
-    vec3f outgoing, vec3f incoming) {
+inline vec3f eval_refractive(
+    float ior, float roughness, vec3f normal, vec3f outgoing, vec3f incoming) {
   if (on_horizon(normal, outgoing, incoming)) return {0, 0, 0};
   auto entering = dot(normal, outgoing) >= 0;
   auto up       = entering ? normal : -normal;
@@ -533,9 +542,9 @@ inline vec3f eval_refractive(float ior, float roughness, vec3f normal,
   } else {
     auto halfway = refraction_halfway(rel_ior, entering, outgoing, incoming);
     if (halfway == vec3f{0, 0, 0}) return {0, 0, 0};
-    auto F     = fresnel_dielectric(rel_ior, halfway, outgoing);
-    auto D     = microfacet_distribution(roughness, up, halfway);
-    auto G     = microfacet_shadowing(roughness, up, halfway, outgoing, incoming);
+    auto F = fresnel_dielectric(rel_ior, halfway, outgoing);
+    auto D = microfacet_distribution(roughness, up, halfway);
+    auto G = microfacet_shadowing(roughness, up, halfway, outgoing, incoming);
     auto denom = rel_ior * dot(halfway, incoming) + dot(halfway, outgoing);
     return vec3f{1, 1, 1} *
            std::abs((dot(outgoing, halfway) * dot(incoming, halfway)) /
@@ -571,8 +580,8 @@ inline vec3f sample_refractive(float ior, float roughness, vec3f normal,
 // times dh/di = rel_ior^2 |i.h| / (rel_ior i.h + o.h)^2 (Walter et al. 2007,
 // eq. 17); Yocto/GL 4.2 omits rel_ior^2, which makes its pdf disagree with its
 // own sampling by that factor.
-inline float sample_refractive_pdf(float ior, float roughness, vec3f normal,
-    vec3f outgoing, vec3f incoming) {
+inline float sample_refractive_pdf(
+    float ior, float roughness, vec3f normal, vec3f outgoing, vec3f incoming) {
   if (on_horizon(normal, outgoing, incoming)) return 0;
   auto entering = dot(normal, outgoing) >= 0;
   auto up       = entering ? normal : -normal;
@@ -742,9 +751,10 @@ inline vec3f eval_bsdfcos(const material_point& material, vec3f normal,
     case material_type::subsurface:
       return eval_refractive(m.ior, m.roughness, normal, outgoing, incoming);
     case material_type::gltfpbr:
-      return eval_gltfpbr(m.color, m.ior, m.roughness, m.metallic, normal,
-          outgoing, incoming);
-    case material_type::volumetric: return {0, 0, 0};
+      return eval_gltfpbr(
+          m.color, m.ior, m.roughness, m.metallic, normal, outgoing, incoming);
+    case material_type::volumetric:
+      return {0, 0, 0};
   }
   return {0, 0, 0};
 }
@@ -755,7 +765,8 @@ inline vec3f sample_bsdfcos(const material_point& material, vec3f normal,
   if (material.roughness == 0) return {0, 0, 0};
   auto& m = material;
   switch (m.type) {
-    case material_type::matte: return sample_matte(normal, outgoing, rn);
+    case material_type::matte:
+      return sample_matte(normal, outgoing, rn);
     case material_type::glossy:
       return sample_glossy(m.ior, m.roughness, normal, outgoing, rnl, rn);
     case material_type::reflective:
@@ -766,9 +777,10 @@ inline vec3f sample_bsdfcos(const material_point& material, vec3f normal,
     case material_type::subsurface:
       return sample_refractive(m.ior, m.roughness, normal, outgoing, rnl, rn);
     case material_type::gltfpbr:
-      return sample_gltfpbr(m.color, m.ior, m.roughness, m.metallic, normal,
-          outgoing, rnl, rn);
-    case material_type::volumetric: return {0, 0, 0};
+      return sample_gltfpbr(
+          m.color, m.ior, m.roughness, m.metallic, normal, outgoing, rnl, rn);
+    case material_type::volumetric:
+      return {0, 0, 0};
   }
   return {0, 0, 0};
 }
@@ -793,9 +805,10 @@ inline float sample_bsdfcos_pdf(const material_point& material, vec3f normal,
       return sample_refractive_pdf(
           m.ior, m.roughness, normal, outgoing, incoming);
     case material_type::gltfpbr:
-      return sample_gltfpbr_pdf(m.color, m.ior, m.roughness, m.metallic,
-          normal, outgoing, incoming);
-    case material_type::volumetric: return 0;
+      return sample_gltfpbr_pdf(
+          m.color, m.ior, m.roughness, m.metallic, normal, outgoing, incoming);
+    case material_type::volumetric:
+      return 0;
   }
   return 0;
 }
@@ -808,7 +821,8 @@ inline vec3f eval_delta(const material_point& material, vec3f normal,
   switch (m.type) {
     case material_type::matte:
     case material_type::glossy:
-    case material_type::gltfpbr: return {0, 0, 0};
+    case material_type::gltfpbr:
+      return {0, 0, 0};
     case material_type::reflective:
       return eval_reflective_delta(m.color, normal, outgoing, incoming);
     case material_type::transparent:
@@ -830,7 +844,8 @@ inline vec3f sample_delta(
   switch (m.type) {
     case material_type::matte:
     case material_type::glossy:
-    case material_type::gltfpbr: return {0, 0, 0};
+    case material_type::gltfpbr:
+      return {0, 0, 0};
     case material_type::reflective:
       return sample_reflective_delta(normal, outgoing);
     case material_type::transparent:
@@ -838,7 +853,8 @@ inline vec3f sample_delta(
     case material_type::refractive:
     case material_type::subsurface:
       return sample_refractive_delta(m.ior, normal, outgoing, rnl);
-    case material_type::volumetric: return sample_passthrough(outgoing);
+    case material_type::volumetric:
+      return sample_passthrough(outgoing);
   }
   return {0, 0, 0};
 }
@@ -851,7 +867,8 @@ inline float sample_delta_pdf(const material_point& material, vec3f normal,
   switch (m.type) {
     case material_type::matte:
     case material_type::glossy:
-    case material_type::gltfpbr: return 0;
+    case material_type::gltfpbr:
+      return 0;
     case material_type::reflective:
       return sample_reflective_delta_pdf(normal, outgoing, incoming);
     case material_type::transparent:
@@ -919,8 +936,8 @@ inline vec3f sample_phasefunction(float anisotropy, vec3f outgoing, vec2f rn) {
   }
   auto sin_theta = std::sqrt(std::max(0.0f, 1 - cos_theta * cos_theta));
   auto phi       = 2 * pif * rn.x;
-  auto local     = vec3f{
-      sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta};
+  auto local =
+      vec3f{sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta};
   return transform_direction(basis_fromz(-outgoing), local);
 }
 
