@@ -12,7 +12,6 @@
 #include <nlohmann/json.hpp>
 
 #include "../util/error.h"
-#include "json_check.h"
 
 using namespace implicit;
 
@@ -117,12 +116,6 @@ doctest::Contains contains(const std::string& text) {
   return doctest::Contains(doctest::String(text.c_str()));
 }
 
-// json_line_column() as a comparable pair.
-std::pair<int, int> line_column(const std::string& text, size_t offset) {
-  auto position = json_line_column(text, offset);
-  return {position.x, position.y};
-}
-
 bool starts_with(const std::string& text, const std::string& prefix) {
   return text.compare(0, prefix.size(), prefix) == 0;
 }
@@ -172,14 +165,10 @@ TEST_CASE("scene_io seed primitives") {
   CHECK(scene.sdfunctions[0].name == "floor");
   CHECK(scene.sdfunctions[0].material == 0);
   CHECK(box.type == sdf_type::box);
-  CHECK(box.size.x == 2.0f);
-  CHECK(box.size.y == 0.00001f);
-  CHECK(box.size.z == 2.0f);
+  CHECK(box.size == vec3f{2, 0.00001f, 2});
   auto bbox = root(1);
   CHECK(bbox.type == sdf_type::bbox);
-  CHECK(bbox.size.x == 0.3f);
-  CHECK(bbox.size.y == 0.2f);
-  CHECK(bbox.size.z == 0.1f);
+  CHECK(bbox.size == vec3f{0.3f, 0.2f, 0.1f});
   CHECK(bbox.thickness == 0.02f);
   auto sphere = root(2);
   CHECK(sphere.type == sdf_type::sphere);
@@ -221,15 +210,11 @@ TEST_CASE("scene_io new primitives") {
   CHECK(cylinder.radius == 0.15f);
   auto rounded = root(8);
   CHECK(rounded.type == sdf_type::rounded_box);
-  CHECK(rounded.size.x == 0.3f);
-  CHECK(rounded.size.y == 0.2f);
-  CHECK(rounded.size.z == 0.1f);
+  CHECK(rounded.size == vec3f{0.3f, 0.2f, 0.1f});
   CHECK(rounded.radius == 0.05f);
   auto ellipsoid = root(9);
   CHECK(ellipsoid.type == sdf_type::ellipsoid);
-  CHECK(ellipsoid.size.x == 0.3f);
-  CHECK(ellipsoid.size.y == 0.2f);
-  CHECK(ellipsoid.size.z == 0.1f);
+  CHECK(ellipsoid.size == vec3f{0.3f, 0.2f, 0.1f});
   auto octahedron = root(10);
   CHECK(octahedron.type == sdf_type::octahedron);
   CHECK(octahedron.radius == 0.4f);
@@ -451,19 +436,13 @@ TEST_CASE("scene_io materials") {
   CHECK(floor.opacity == 1.0f);
   auto& all = scene.materials[2];
   CHECK(all.type == material_type::gltfpbr);
-  CHECK(all.emission.x == 1.0f);
-  CHECK(all.emission.y == 2.0f);
-  CHECK(all.emission.z == 3.0f);
-  CHECK(all.color.x == 0.1f);
-  CHECK(all.color.y == 0.2f);
-  CHECK(all.color.z == 0.3f);
+  CHECK(all.emission == vec3f{1, 2, 3});
+  CHECK(all.color == vec3f{0.1f, 0.2f, 0.3f});
   CHECK(all.metallic == 0.25f);
   CHECK(all.roughness == 0.5f);
   CHECK(all.ior == 1.33f);
   CHECK(all.trdepth == 0.2f);
-  CHECK(all.scattering.x == 0.4f);
-  CHECK(all.scattering.y == 0.5f);
-  CHECK(all.scattering.z == 0.6f);
+  CHECK(all.scattering == vec3f{0.4f, 0.5f, 0.6f});
   CHECK(all.scanisotropy == -0.3f);
   CHECK(all.opacity == 0.75f);
   CHECK(all.emission_tex == 0);
@@ -479,7 +458,7 @@ TEST_CASE("scene_io materials") {
   }
 }
 
-TEST_CASE("scene_io environments, textures, volumes, instances") {
+TEST_CASE("scene_io environments textures volumes instances") {
   auto scene = parse_json_scene(base_scene());
   REQUIRE(scene.environments.size() == 1);
   auto& environment = scene.environments[0];
@@ -614,9 +593,7 @@ TEST_CASE("scene_io seed scenes") {
       CHECK(warnings.size() == 2);
       REQUIRE(scene.volumes.size() == 2);
       auto& bunny = scene.volumes[1].grid;
-      CHECK(bunny.dims.x == 84);
-      CHECK(bunny.dims.y == 85);
-      CHECK(bunny.dims.z == 65);
+      CHECK(bunny.dims == vec3i{84, 85, 65});
       CHECK(bunny.values.size() == (size_t)84 * 85 * 65);
       CHECK(!scene.volumes[0].grid.values.empty());
       REQUIRE(scene.textures.size() == 1);
@@ -692,11 +669,6 @@ TEST_CASE("scene_io errors: invalid JSON") {
       "appear once per object)");
   CHECK(scene_error("[1]") ==
       "scene.json: expected a JSON object, found an array");
-  CHECK(line_column("ab\ncd\n", 0) == std::pair{1, 1});
-  CHECK(line_column("ab\ncd\n", 2) == std::pair{1, 3});
-  CHECK(line_column("ab\ncd\n", 3) == std::pair{2, 1});
-  CHECK(line_column("ab\ncd\n", 4) == std::pair{2, 2});
-  CHECK(line_column("ab\ncd\n", 99) == std::pair{3, 1});
 }
 
 TEST_CASE("scene_io errors: asset and top level") {
