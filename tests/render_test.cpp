@@ -16,9 +16,6 @@ namespace {
 std::string example_scene(const std::string& name) {
   return std::string{IMPLICIT_SOURCE_DIR} + "/examples/" + name;
 }
-std::string seed_scene(const std::string& name) {
-  return std::string{IMPLICIT_SHARED_DIR} + "/seed_scenes/tests/" + name;
-}
 
 image_data render(const scene_data& scene, trace_params params) {
   auto accel  = make_accel(scene, params.accel, params.march);

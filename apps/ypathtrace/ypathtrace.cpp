@@ -118,7 +118,7 @@ static std::string batch_filename(const std::string& output, int samples) {
 
 static int run(app_options& opts) {
   auto warnings = std::vector<std::string>{};
-  auto scene    = load_scene(opts.scene);  // TODO warnings overload
+  auto scene    = load_scene(opts.scene, warnings);
   for (auto& warning : warnings) std::fprintf(stderr, "warning: %s\n", warning.c_str());
 
   auto& params = opts.params;

@@ -27,10 +27,10 @@ inline const std::vector<std::string> accel_type_names = {"bvh", "none"};
 // scene (hit_min = scene_epsilon * scene size) near the start of bounces.
 struct march_params {
   int   max_iterations = 450;    // the seed's default (--stmaxiter)
-  float hit_relative   = 1e-4f;  // fraction of the distance travelled
+  float hit_relative   = 1e-5f;  // fraction of the distance travelled
   float scene_epsilon  = 1e-6f;  // fraction of the scene size
   float overrelax      = 1.6f;   // Keinert et al. 2014 (1 disables)
-  float fallback       = 4;      // closest approach within this many
+  float fallback       = 2;      // closest approach within this many
                                  // thresholds counts as a hit
 };
 
