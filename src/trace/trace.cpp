@@ -5,6 +5,8 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
+#include <array>
+
 #include "../math/sampling.h"
 #include "shading.h"
 
@@ -22,6 +24,44 @@ struct surface_point {
   material_point material = {};
 };
 
+// Texture lookup by triplanar mapping in the object's space (implicit
+// surfaces have no uv): three planar projections blended by the normal's
+// components raised to a power, so that each face takes its dominant axis.
+// One texture repeat per unit of object space.
+static vec4f eval_triplanar(const scene_data& scene, int texture, vec3f p, vec3f n) {
+  if (texture < 0 || texture >= (int)scene.textures.size()) return {1, 1, 1, 1};
+  auto w = abs(n);
+  w      = w * w * w * w;
+  w      = w / std::max(sum(w), 1e-8f);
+  auto x = eval_texture(scene, texture, {p.z, -p.y});
+  auto y = eval_texture(scene, texture, {p.x, p.z});
+  auto z = eval_texture(scene, texture, {p.x, -p.y});
+  return x * w.x + y * w.y + z * w.z;
+}
+
+// Material at a point, with its textures looked up in object space.
+static material_point eval_material(const scene_data& scene,
+    const trace_object& object, vec3f position, vec3f normal) {
+  if (object.material < 0 || object.material >= (int)scene.materials.size())
+    return {};
+  auto& material = scene.materials[object.material];
+  auto  textured = material.color_tex >= 0 || material.emission_tex >= 0 ||
+                  material.roughness_tex >= 0 || material.scattering_tex >= 0;
+  if (!textured) return make_material_point(material);
+  // Object space before any grid scale, so textures keep their size when
+  // a grid instance is scaled.
+  auto scale = object.kind == object_kind::grid
+                   ? scene.vol_instances[object.index].scale
+                   : 1.0f;
+  auto p = transform_point(object.local_from_world, position) * scale;
+  auto n = normalize(transform_vector(object.local_from_world, normal));
+  return make_material_point(material,
+      eval_triplanar(scene, material.color_tex, p, n),
+      eval_triplanar(scene, material.emission_tex, p, n),
+      eval_triplanar(scene, material.roughness_tex, p, n),
+      eval_triplanar(scene, material.scattering_tex, p, n));
+}
+
 static surface_point eval_surface(const scene_data& scene,
     const accel_data& accel, const ray3f& ray, const scene_intersection& isec) {
   auto  point    = surface_point{};
@@ -29,8 +69,7 @@ static surface_point eval_surface(const scene_data& scene,
   point.position = ray_point(ray, isec.distance);
   point.epsilon  = isec.epsilon;
   point.normal   = eval_object_normal(object, point.position, isec.epsilon * 0.5f);
-  if (object.material >= 0 && object.material < (int)scene.materials.size())
-    point.material = make_material_point(scene.materials[object.material]);
+  point.material = eval_material(scene, object, point.position, point.normal);
   return point;
 }
 
@@ -44,72 +83,211 @@ static ray3f spawn_ray(
   return {point.position + point.normal * (offset * side), direction, 0, flt_max};
 }
 
-// Environment seen along a ray that left the scene.
-static vec3f eval_background(const scene_data& scene, vec3f direction) {
-  return eval_environment(scene, direction);
+// -----------------------------------------------------------------------------
+// PATH TRACING
+// -----------------------------------------------------------------------------
+
+// Power heuristic (Veach 1997) with exponent 2.
+static float power_heuristic(float pdf, float other) {
+  return pdf * pdf / (pdf * pdf + other * other);
 }
 
-// -----------------------------------------------------------------------------
-// SHADERS
-// -----------------------------------------------------------------------------
+// Radiance arriving at a point from `ray` without scattering: the emission of
+// the first surface that blocks it, or the environment. Surfaces with opacity
+// let (1 - opacity) through and volumetric (pass-through) objects attenuate
+// by their transmittance, both deterministically; any other surface blocks.
+static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
+    ray3f ray, int64_t& evaluations) {
+  auto transmittance = vec3f{1, 1, 1};
+  auto radiance      = vec3f{0, 0, 0};
+  auto inside        = std::array<int, 8>{};  // volumetric objects entered
+  auto inside_count  = 0;
+  auto entry         = std::array<vec3f, 8>{};
+  for (auto crossing = 0; crossing < 16; crossing++) {
+    auto isec = intersect_scene(accel, ray);
+    evaluations += isec.evaluations;
+    if (!isec.hit) return radiance + transmittance * eval_environment(scene, ray.d);
+    auto point    = eval_surface(scene, accel, ray, isec);
+    auto& material = point.material;
+    radiance += transmittance * material.opacity *
+                eval_emission(material, point.normal, -ray.d);
+    if (material.type != material_type::volumetric) {
+      if (material.opacity >= 1) return radiance;
+      transmittance *= 1 - material.opacity;
+    } else {
+      // Entering or leaving a homogeneous medium: attenuate on exit.
+      auto found = -1;
+      for (auto k = 0; k < inside_count; k++)
+        if (inside[k] == isec.object) found = k;
+      if (found < 0 && inside_count < (int)inside.size()) {
+        inside[inside_count] = isec.object;
+        entry[inside_count++] = point.position;
+      } else if (found >= 0) {
+        transmittance *= eval_transmittance(
+            material.density, distance(entry[found], point.position));
+        inside[found] = inside[--inside_count];
+        entry[found]  = entry[inside_count];
+      }
+    }
+    if (max(transmittance) <= 0) return radiance;
+    ray = spawn_ray(accel, point, ray.d);
+  }
+  return radiance;
+}
 
-// Path tracer with the seed's one-sample MIS: each bounce samples the BSDF or
-// the lights (50/50) and weights by the mixture pdf; emission is collected
+// The homogeneous media the path is inside (closed refractive, subsurface or
+// volumetric objects), innermost last. Fixed size: no allocation per path.
+struct volume_stack {
+  std::array<material_point, 8> items = {};
+  int                           size  = 0;
+};
+
+// Path tracer. One-sample MIS (the seed's): each bounce samples the BSDF or
+// the lights 50/50 and weights by the mixture pdf; emission is collected
 // where the path lands, so emitters that cannot be sampled are still found.
+// Two-sample MIS: each surface bounce outside media traces a light sample
+// and continues with a BSDF sample, both weighted by the power heuristic.
 static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const ray3f& camera_ray,
     const trace_params& params, rng_state& rng, int64_t& evaluations) {
-  auto radiance = vec3f{0, 0, 0};
-  auto weight   = vec3f{1, 1, 1};
-  auto ray      = camera_ray;
-  auto hit      = false;
-  auto use_lights = params.implicit_mis && !lights.lights.empty();
+  auto radiance      = vec3f{0, 0, 0};
+  auto weight        = vec3f{1, 1, 1};
+  auto ray           = camera_ray;
+  auto hit           = false;
+  auto use_lights    = params.implicit_mis && !lights.lights.empty();
+  auto two_sample    = use_lights && params.mis == mis_type::two_sample;
   auto opacity_skips = 0;
+  auto volumes       = volume_stack{};
+  // Two-sample MIS: the BSDF pdf of the direction that led here, or 0 when
+  // emission found along it needs no weight (camera, delta, one-sample).
+  auto bsdf_pdf      = 0.0f;
+  auto from          = ray.o;
+  // Weight for emission reached by a BSDF-sampled direction.
+  auto emission_weight = [&](vec3f direction) {
+    if (bsdf_pdf <= 0) return 1.0f;
+    return power_heuristic(bsdf_pdf,
+        sample_lights_pdf(scene, accel, lights, from, direction));
+  };
   for (auto bounce = 0; bounce < params.bounces; bounce++) {
     auto isec = intersect_scene(accel, ray);
     evaluations += isec.evaluations;
     if (!isec.hit) {
       if (bounce > 0 || !params.envhidden)
-        radiance += weight * eval_background(scene, ray.d);
+        radiance += weight * eval_environment(scene, ray.d) * emission_weight(ray.d);
       break;
     }
-    auto point    = eval_surface(scene, accel, ray, isec);
-    auto outgoing = -ray.d;
-    auto& material = point.material;
 
-    // Opacity: continue straight through (bounded, as Yocto does).
-    if (material.opacity < 1 && rand1f(rng) >= material.opacity) {
-      if (opacity_skips++ > 128) break;
-      ray = spawn_ray(accel, point, ray.d);
-      bounce--;
-      continue;
+    // Inside a medium: sample a scattering distance before the surface.
+    auto in_volume = false;
+    if (volumes.size > 0) {
+      auto& medium   = volumes.items[volumes.size - 1];
+      auto  distance = sample_transmittance(
+          medium.density, isec.distance, rand1f(rng), rand1f(rng));
+      auto pdf = sample_transmittance_pdf(medium.density, distance, isec.distance);
+      if (pdf <= 0) break;
+      weight *= eval_transmittance(medium.density, distance) / pdf;
+      in_volume     = distance < isec.distance;
+      isec.distance = distance;
     }
-    if (bounce == 0) hit = true;
 
-    radiance += weight * eval_emission(material, point.normal, outgoing);
-
-    auto incoming = vec3f{0, 0, 0};
-    if (!is_delta(material)) {
+    if (in_volume) {
+      // Scattering in the medium (one-sample mixture of phase and lights).
+      auto& medium   = volumes.items[volumes.size - 1];
+      auto  position = ray_point(ray, isec.distance);
+      auto  outgoing = -ray.d;
+      auto  incoming = vec3f{0, 0, 0};
       if (!use_lights || rand1f(rng) < 0.5f) {
-        incoming = sample_bsdfcos(
-            material, point.normal, outgoing, rand1f(rng), rand2f(rng));
+        incoming = sample_scattering(medium, outgoing, rand1f(rng), rand2f(rng));
       } else {
-        incoming = sample_lights(scene, accel, lights, point.position,
-            rand1f(rng), rand1f(rng), rand2f(rng));
+        incoming = sample_lights(scene, accel, lights, position, rand1f(rng),
+            rand1f(rng), rand2f(rng));
       }
       if (incoming == vec3f{0, 0, 0}) break;
-      auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
+      auto pdf = sample_scattering_pdf(medium, outgoing, incoming);
       if (use_lights)
-        pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(scene, accel, lights,
-                                      point.position, incoming);
+        pdf = 0.5f * pdf +
+              0.5f * sample_lights_pdf(scene, accel, lights, position, incoming);
       if (pdf <= 0) break;
-      weight *= eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
+      weight *= eval_scattering(medium, outgoing, incoming) / pdf;
+      bsdf_pdf = 0;
+      ray      = {position, incoming, 0, flt_max};
     } else {
-      incoming = sample_delta(material, point.normal, outgoing, rand1f(rng));
-      if (incoming == vec3f{0, 0, 0}) break;
-      auto pdf = sample_delta_pdf(material, point.normal, outgoing, incoming);
-      if (pdf <= 0) break;
-      weight *= eval_delta(material, point.normal, outgoing, incoming) / pdf;
+      auto  point    = eval_surface(scene, accel, ray, isec);
+      auto  outgoing = -ray.d;
+      auto& material = point.material;
+
+      // Opacity: continue straight through (bounded, as Yocto does).
+      if (material.opacity < 1 && rand1f(rng) >= material.opacity) {
+        if (opacity_skips++ > 128) break;
+        ray = spawn_ray(accel, point, ray.d);
+        bounce--;
+        continue;
+      }
+      if (bounce == 0) hit = true;
+
+      radiance += weight * eval_emission(material, point.normal, outgoing) *
+                  emission_weight(ray.d);
+
+      auto incoming = vec3f{0, 0, 0};
+      if (is_delta(material)) {
+        incoming = sample_delta(material, point.normal, outgoing, rand1f(rng));
+        if (incoming == vec3f{0, 0, 0}) break;
+        auto pdf = sample_delta_pdf(material, point.normal, outgoing, incoming);
+        if (pdf <= 0) break;
+        weight *= eval_delta(material, point.normal, outgoing, incoming) / pdf;
+        bsdf_pdf = 0;
+      } else if (two_sample && volumes.size == 0) {
+        // Light sample, traced to whatever emits along it.
+        auto light = sample_lights(scene, accel, lights, point.position,
+            rand1f(rng), rand1f(rng), rand2f(rng));
+        if (light != vec3f{0, 0, 0}) {
+          auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
+          auto lpdf = sample_lights_pdf(scene, accel, lights, point.position, light);
+          if (bsdfcos != vec3f{0, 0, 0} && lpdf > 0) {
+            auto bpdf = sample_bsdfcos_pdf(material, point.normal, outgoing, light);
+            auto le   = eval_unscattered(
+                scene, accel, spawn_ray(accel, point, light), evaluations);
+            radiance += weight * bsdfcos * le * (power_heuristic(lpdf, bpdf) / lpdf);
+          }
+        }
+        // BSDF sample, which also continues the path.
+        incoming = sample_bsdfcos(
+            material, point.normal, outgoing, rand1f(rng), rand2f(rng));
+        if (incoming == vec3f{0, 0, 0}) break;
+        auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
+        if (pdf <= 0) break;
+        weight *= eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
+        bsdf_pdf = pdf;
+        from     = point.position;
+      } else {
+        if (!use_lights || rand1f(rng) < 0.5f) {
+          incoming = sample_bsdfcos(
+              material, point.normal, outgoing, rand1f(rng), rand2f(rng));
+        } else {
+          incoming = sample_lights(scene, accel, lights, point.position,
+              rand1f(rng), rand1f(rng), rand2f(rng));
+        }
+        if (incoming == vec3f{0, 0, 0}) break;
+        auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
+        if (use_lights)
+          pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(scene, accel, lights,
+                                        point.position, incoming);
+        if (pdf <= 0) break;
+        weight *= eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
+        bsdf_pdf = 0;
+      }
+
+      // Crossing the boundary of a closed medium enters or leaves it.
+      if (is_volumetric(material) &&
+          dot(point.normal, outgoing) * dot(point.normal, incoming) < 0) {
+        if (dot(point.normal, incoming) < 0) {
+          if (volumes.size < (int)volumes.items.size())
+            volumes.items[volumes.size++] = material;
+        } else if (volumes.size > 0) {
+          volumes.size--;
+        }
+      }
+      ray = spawn_ray(accel, point, incoming);
     }
     if (max(weight) <= 0 || !isfinite(weight)) break;
 
@@ -119,7 +297,6 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       if (rand1f(rng) >= survive) break;
       weight /= survive;
     }
-    ray = spawn_ray(accel, point, incoming);
   }
   return {radiance.x, radiance.y, radiance.z, hit ? 1.0f : 0.0f};
 }

@@ -165,3 +165,87 @@ TEST_CASE("trace: implicit_normal colours and alpha") {
   CHECK(centre.w == 1);
   CHECK(pixel(image, 0, 0).w == 0);  // a miss is transparent
 }
+
+TEST_CASE("trace: furnace per material stays at or below 1") {
+  struct furnace_case {
+    material_type type;
+    float         roughness, metallic, lo, hi;
+  };
+  // Expected ranges: lossless lobes converge to 1; rough lobes lose a little
+  // energy to single-scattering microfacets.
+  auto cases = std::vector<furnace_case>{
+      {material_type::matte, 0, 0, 0.98f, 1.02f},
+      {material_type::glossy, 0.5f, 0, 0.85f, 1.02f},
+      {material_type::gltfpbr, 0.5f, 0, 0.85f, 1.02f},
+      {material_type::reflective, 0, 0, 0.95f, 1.02f},
+      {material_type::transparent, 0, 0, 0.98f, 1.02f},
+      {material_type::refractive, 0, 0, 0.97f, 1.02f},
+  };
+  for (auto& c : cases) {
+    auto scene = furnace_scene();
+    scene.materials[0].type      = c.type;
+    scene.materials[0].roughness = c.roughness;
+    scene.materials[0].metallic  = c.metallic;
+    for (auto mis : {mis_type::one_sample, mis_type::two_sample}) {
+      auto params       = trace_params{};
+      params.resolution = 24;
+      params.samples    = 64;
+      params.bounces    = 16;
+      params.envhidden  = true;
+      params.mis        = mis;
+      auto image = render(scene, params);
+      auto count = 0;
+      auto mean  = covered_mean(image, count);
+      INFO("material ", material_type_names[(int)c.type], " mis ", (int)mis);
+      CHECK(mean.y >= c.lo);
+      CHECK(mean.y <= c.hi);
+    }
+  }
+}
+
+TEST_CASE("trace: one-sample, two-sample and no MIS converge to the same mean") {
+  auto scene        = small_light_scene();
+  scene.materials[0].type      = material_type::glossy;
+  scene.materials[0].roughness = 0.3f;
+  auto params       = trace_params{};
+  params.resolution = 32;
+  params.samples    = 256;
+  params.bounces    = 3;
+  params.clamp      = 1e6f;
+  auto means = std::vector<float>{};
+  for (auto mode : {0, 1, 2}) {
+    params.implicit_mis = mode != 2;
+    params.mis          = mode == 1 ? mis_type::two_sample : mis_type::one_sample;
+    auto count = 0;
+    means.push_back(covered_mean(render(scene, params), count).x);
+  }
+  CHECK(means[0] > 0.05f);
+  CHECK(means[1] == doctest::Approx(means[0]).epsilon(0.03));
+  CHECK(means[2] == doctest::Approx(means[0]).epsilon(0.05));
+}
+
+TEST_CASE("trace: absorbing glass is darker than clear glass") {
+  auto scene = furnace_scene();
+  scene.materials[0].type    = material_type::refractive;
+  scene.materials[0].color   = {1, 1, 1};
+  auto params       = trace_params{};
+  params.resolution = 24;
+  params.samples    = 32;
+  params.bounces    = 16;
+  params.envhidden  = true;
+  auto count = 0;
+  auto clear = covered_mean(render(scene, params), count);
+  scene.materials[0].color   = {0.2f, 0.5f, 1.0f};
+  scene.materials[0].trdepth = 0.5f;
+  auto tinted = covered_mean(render(scene, params), count);
+  CHECK(tinted.x < 0.5f * clear.x);
+  CHECK(tinted.z > 0.95f * clear.z);  // no absorption in blue
+  // A scattering medium with white albedo conserves energy.
+  scene.materials[0].type       = material_type::volumetric;
+  scene.materials[0].color      = {0.5f, 0.5f, 0.5f};
+  scene.materials[0].scattering = {1, 1, 1};
+  scene.materials[0].trdepth    = 0.2f;
+  params.bounces = 64;
+  auto fog = covered_mean(render(scene, params), count);
+  CHECK(fog.y <= 1.02f);
+}
