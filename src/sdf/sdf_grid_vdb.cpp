@@ -7,9 +7,11 @@
 // keeps signed for level sets (-background inside, +background outside).
 
 #include <openvdb/io/File.h>
+#include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 
 #include <cstdio>
+#include <sstream>
 #include <mutex>
 
 #include "../util/error.h"
@@ -45,15 +47,19 @@ static float uniform_voxel_size(const openvdb::math::Transform& transform) {
 
 grid_data load_vdb_grid(const std::string& filename) {
   init_openvdb();
+  // Read through a stream that throws on a short read: io::File ignores
+  // them, so a truncated file would load with garbage voxels.
+  auto file  = mapped_file{filename};
   auto grids = openvdb::GridPtrVecPtr{};
   try {
-    auto file = openvdb::io::File(filename);
-    file.open();
-    grids = file.getGrids();
-    file.close();
-  } catch (const openvdb::Exception& error) {
+    auto stream = std::istringstream(std::string(file.data, file.size));
+    stream.exceptions(std::ios::failbit | std::ios::badbit);
+    grids = openvdb::io::Stream(stream).getGrids();
+  } catch (const std::exception& error) {
+    // OpenVDB throws its own exceptions, std::ios failures and bad_alloc.
     throw_io_error(filename, std::string("not a readable OpenVDB file: ") + error.what());
   }
+  if (!grids) throw_io_error(filename, "not a readable OpenVDB file");
   auto level_set = openvdb::FloatGrid::Ptr{};
   auto found     = std::string{};
   for (auto& base : *grids) {
@@ -128,7 +134,7 @@ void save_vdb_grid(const std::string& filename, const grid_data& grid) {
     auto file = openvdb::io::File(temporary);
     file.write({level_set});
     file.close();
-  } catch (const openvdb::Exception& error) {
+  } catch (const std::exception& error) {
     std::remove(temporary.c_str());
     throw_io_error(filename, std::string("cannot write: ") + error.what());
   }
