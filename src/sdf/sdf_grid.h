@@ -3,14 +3,31 @@
 // A signed distance grid: samples on a regular lattice, trilinearly
 // interpolated. Grid space puts sample (i,j,k) at spacing*(i,j,k), so the
 // first sample is the origin and the grid's box is [0, spacing*(dims-1)].
-// Outside that box the distance is the distance to the box (plus the value
-// at the closest boundary point when it is positive).
+// Negative values are inside.
+//
+// The surface is the zero set of the trilinear interpolant closed by the
+// grid's box: the solid is {interpolant < 0} intersected with the box, so
+// where the interpolant is negative on the boundary (SDFGen clips the + side
+// when the padding is small) the box face is the surface.
+//
+// Outside the box, eval_grid() returns sqrt(|p-q|^2 + max(f(q),0)^2), q the
+// closest box point: a valid lower bound of the distance to the solid, since
+// for a convex set |p-s|^2 >= |p-q|^2 + |q-s|^2 for every s in it.
+//
+// Intersection is exact: the first root of the cubic that the interpolant
+// makes along the ray inside each candidate voxel, found after skipping
+// empty space with a two-level 3D-DDA (8^3 bricks with a value range, then
+// voxels whose 8 corners can not change sign are skipped).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "../math/math.h"
+#include "sdf_program.h"
 
 namespace implicit {
 
@@ -18,12 +35,31 @@ namespace implicit {
 // GRID DATA
 // -----------------------------------------------------------------------------
 
+// Voxels per brick side in the acceleration data.
+inline constexpr int grid_brick_size = 8;
+
+// Memory budget of one grid: 2^31 samples (8 GiB of float32). Loaders refuse
+// larger grids before allocating anything.
+inline constexpr int64_t grid_max_samples = int64_t{1} << 31;
+
+// Value range of one brick (its 9^3 samples, fewer at the far border).
+struct grid_brick_range {
+  float min = 0;
+  float max = 0;
+};
+
 // Samples x fastest: value(i,j,k) = values[i + dims.x*(j + dims.y*k)].
+// The brick data is made by update_grid_accel(), which every loader and
+// maker calls; tracing asserts it is current.
 struct grid_data {
   vec3i              dims    = {0, 0, 0};
   float              spacing = 1;          // distance between samples
   vec3f              origin  = {0, 0, 0};  // file origin, informational only
   std::vector<float> values  = {};
+
+  // Acceleration data (update_grid_accel).
+  vec3i                         bricks       = {0, 0, 0};
+  std::vector<grid_brick_range> brick_ranges = {};
 };
 
 // Sample value at integer coordinates (no bounds check beyond asserts).
@@ -32,18 +68,82 @@ inline float grid_value(const grid_data& grid, int i, int j, int k) {
                      (size_t)grid.dims.x * ((size_t)j + (size_t)grid.dims.y * k)];
 }
 
+// Number of samples as a 64-bit count.
+inline int64_t grid_samples(vec3i dims) {
+  return (int64_t)dims.x * (int64_t)dims.y * (int64_t)dims.z;
+}
+
+// Why `dims` can not make a grid (each axis in [2, 2^31), product within
+// grid_max_samples), or an empty string when it can.
+std::string check_grid_dims(int64_t nx, int64_t ny, int64_t nz);
+
+// Build the acceleration data; call after changing dims or values.
+void update_grid_accel(grid_data& grid);
+// Whether the acceleration data matches the grid's dims.
+bool has_grid_accel(const grid_data& grid);
+
+// A grid of `dims` samples, all `value`, with its acceleration data.
+grid_data make_grid(vec3i dims, float spacing, vec3f origin, float value);
+
 // Box of the grid in grid space: [0, spacing*(dims-1)].
 bbox3f grid_bounds(const grid_data& grid);
 
-// Trilinear interpolant at a grid-space point; outside the box, the distance
-// to the box plus the interpolant at the closest box point.
+// Bytes used by a grid (samples and acceleration data).
+size_t grid_memory(const grid_data& grid);
+
+// -----------------------------------------------------------------------------
+// EVALUATION (never throws, never allocates)
+// -----------------------------------------------------------------------------
+
+// Trilinear interpolant inside the box; outside, the lower bound
+// sqrt(|p-q|^2 + max(f(q),0)^2) with q the closest box point.
 float eval_grid(const grid_data& grid, vec3f p);
 
-// Gradient of the trilinear interpolant at a grid-space point (normalized).
+// Normal at a surface point: the normalized gradient of the trilinear
+// interpolant in the voxel that holds p; at a hit on the box (p on a face,
+// interpolant negative there) the face's outward normal.
 vec3f eval_grid_gradient(const grid_data& grid, vec3f p);
 
-// First hit of the trilinear interpolant's zero set along a grid-space ray in
-// [ray.tmin, ray.tmax]. `steps` counts the work done (voxels or evaluations).
-bool intersect_grid(const grid_data& grid, const ray3f& ray, float& t, int& steps);
+// Normal that is continuous across voxels: the trilinear interpolation of
+// central-difference gradients at the 8 surrounding samples (the "gradient
+// volume" of Höhne & Bernstein 1986 and Levoy 1988), normalized; box faces
+// as in eval_grid_gradient().
+vec3f eval_grid_gradient_smooth(const grid_data& grid, vec3f p);
+
+// First crossing of the surface along a grid-space ray in
+// [ray.tmin, ray.tmax] (the direction need not be unit length; t keeps its
+// meaning). A ray that starts inside the solid stops where it leaves it: the
+// interpolant crossing zero or the box exit. `steps` counts the DDA cells
+// visited (each skipped brick once, then each voxel of the other bricks).
+bool intersect_grid(
+    const grid_data& grid, const ray3f& ray, float& t, int& steps);
+
+// -----------------------------------------------------------------------------
+// STATISTICS AND BAKING
+// -----------------------------------------------------------------------------
+
+// Summary of a grid's values.
+struct grid_stats {
+  float   min               = 0;
+  float   max               = 0;
+  int64_t negative_samples  = 0;  // samples < 0
+  int64_t surface_voxels    = 0;  // voxels with corners < 0 and >= 0
+  int64_t negative_boundary = 0;  // samples < 0 on the box (closed by it)
+};
+
+// Value range and zero-crossing counts.
+grid_stats compute_grid_stats(const grid_data& grid);
+
+// Sample an SDF program on a grid: sample (i,j,k) is at
+// bounds_world.min + spacing*(i,j,k) in world space and holds
+// eval_sdf(program, local_from_world * p) divided by the largest stretch of
+// local_from_world, so values stay distances (bounds) in world units. The
+// grid covers bounds_world (rounded up to whole voxels); `progress`, when
+// set, is called from the calling thread with (slices done, slices total).
+// Throws io_error for empty or infinite bounds, a bad spacing or a grid over
+// budget.
+grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,
+    const bbox3f& bounds_world, float spacing,
+    const std::function<void(int, int)>& progress = {});
 
 }  // namespace implicit

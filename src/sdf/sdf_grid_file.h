@@ -1,0 +1,80 @@
+// # implicit: SDF grid files: shared helpers of the grid and mesh loaders
+//
+// Internal to src/sdf: read-only file mapping, little-endian reads and
+// atomic writes (temporary name, then rename), plus the OpenVDB entry points
+// that live in their own translation unit (OpenVDB's headers are heavy).
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "sdf_grid.h"
+
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+    "grid files are little-endian; add byte swapping for this host");
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// FILE ACCESS
+// -----------------------------------------------------------------------------
+
+// A whole file mapped read-only; move-only owner of the mapping. Throws
+// io_error when the file can not be opened or is empty.
+struct mapped_file {
+  const char* data = nullptr;
+  size_t      size = 0;
+
+  explicit mapped_file(const std::string& filename);
+  ~mapped_file();
+  mapped_file(const mapped_file&)            = delete;
+  mapped_file& operator=(const mapped_file&) = delete;
+};
+
+// A file written under a temporary name and renamed by commit(), so a
+// failed save leaves no partial file; move-only owner of the FILE*.
+struct output_file {
+  std::string filename = "";
+  std::string temporary = "";
+  FILE*       file      = nullptr;
+
+  explicit output_file(const std::string& filename);
+  ~output_file();
+  output_file(const output_file&)            = delete;
+  output_file& operator=(const output_file&) = delete;
+};
+
+// Write bytes; throws io_error on failure.
+void write_bytes(output_file& out, const void* data, size_t size);
+// Flush, close and rename to the final name; throws io_error on failure.
+void commit_file(output_file& out);
+
+// Little-endian reads from a byte buffer (the host is little-endian).
+inline int32_t read_i32(const char* p) {
+  auto v = int32_t{0};
+  std::memcpy(&v, p, 4);
+  return v;
+}
+inline float read_f32(const char* p) {
+  auto v = 0.0f;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+
+// A short printable excerpt of a token for error messages.
+std::string token_excerpt(const char* begin, const char* end);
+
+// -----------------------------------------------------------------------------
+// OPENVDB (sdf_grid_vdb.cpp)
+// -----------------------------------------------------------------------------
+
+// Register OpenVDB's types, once per process (thread-safe).
+void init_openvdb();
+// Load the first float level set of a .vdb file as a dense grid.
+grid_data load_vdb_grid(const std::string& filename);
+// Save a grid as a float level set.
+void save_vdb_grid(const std::string& filename, const grid_data& grid);
+
+}  // namespace implicit
