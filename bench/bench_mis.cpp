@@ -1,0 +1,121 @@
+// # bench_mis: equal-time error of the light-sampling strategies
+//
+// Renders a reference with many samples, then renders the scene with MIS off
+// (BSDF sampling only), the seed's one-sample MIS and two-sample MIS, each for
+// the same wall-clock budget, and prints the RMSE of each against the
+// reference. Clamping is off so that no strategy is biased by it.
+//
+// Usage: bench_mis scene.json [--resolution N] [--reference-samples N]
+//        [--seconds S] [--bounces N]
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "scene/scene_io.h"
+#include "trace/trace.h"
+
+using namespace implicit;
+
+struct timed_render {
+  image_data image   = {};
+  int        samples = 0;
+  double     seconds = 0;
+};
+
+// Render passes until `seconds` have elapsed or `max_samples` are done.
+static timed_render render_for(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const trace_params& params, double seconds,
+    int max_samples) {
+  auto state  = make_state(scene, params);
+  auto start  = std::chrono::steady_clock::now();
+  auto result = timed_render{};
+  while (state.samples < max_samples) {
+    trace_samples(state, scene, accel, lights, params);
+    result.seconds = std::chrono::duration<double>(
+        std::chrono::steady_clock::now() - start).count();
+    if (result.seconds >= seconds) break;
+  }
+  result.samples = state.samples;
+  result.image   = get_render(state);
+  return result;
+}
+
+static double rmse(const image_data& a, const image_data& b) {
+  auto sum = 0.0;
+  for (size_t i = 0; i < a.pixels.size(); i++) {
+    auto d = xyz(a.pixels[i]) - xyz(b.pixels[i]);
+    sum += (double)dot(d, d) / 3;
+  }
+  return std::sqrt(sum / a.pixels.size());
+}
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: bench_mis scene.json [--resolution N] "
+                         "[--reference-samples N] [--seconds S] [--bounces N]\n");
+    return 1;
+  }
+  auto filename          = std::string{argv[1]};
+  auto resolution        = 180;
+  auto reference_samples = 4096;
+  auto seconds           = 10.0;
+  auto bounces           = 4;
+  for (auto i = 2; i + 1 < argc; i += 2) {
+    auto arg = std::string{argv[i]};
+    if (arg == "--resolution") resolution = std::atoi(argv[i + 1]);
+    if (arg == "--reference-samples") reference_samples = std::atoi(argv[i + 1]);
+    if (arg == "--seconds") seconds = std::atof(argv[i + 1]);
+    if (arg == "--bounces") bounces = std::atoi(argv[i + 1]);
+  }
+  auto scene = scene_data{};
+  try {
+    auto warnings = std::vector<std::string>{};
+    scene         = load_scene(filename, warnings);
+  } catch (const std::exception& error) {
+    std::fprintf(stderr, "bench_mis: %s\n", error.what());
+    return 1;
+  }
+  auto params       = trace_params{};
+  params.camera     = find_camera(scene, "");
+  params.resolution = resolution;
+  params.bounces    = bounces;
+  params.clamp      = 1e30f;
+  auto accel        = make_accel(scene, params.accel, params.march);
+  auto lights       = make_lights(scene, accel);
+
+  auto reference_params = params;
+  reference_params.mis  = mis_type::two_sample;
+  reference_params.seed = 12345;
+  auto reference = render_for(scene, accel, lights, reference_params, 1e30,
+      reference_samples);
+  std::printf("scene %s, %dx%d, %d bounces, reference %d spp (two-sample MIS) in %.1f s\n\n",
+      filename.c_str(), reference.image.width, reference.image.height, bounces,
+      reference.samples, reference.seconds);
+  std::printf("| sampler | samples in %.0f s | RMSE | RMSE ratio to one-sample |\n", seconds);
+  std::printf("|---|---|---|---|\n");
+  struct mode {
+    const char* name;
+    bool        mis;
+    mis_type    type;
+  };
+  auto modes   = {mode{"MIS off (--noimplicitmis)", false, mis_type::one_sample},
+      mode{"one-sample MIS (--mis one)", true, mis_type::one_sample},
+      mode{"two-sample MIS (--mis two)", true, mis_type::two_sample}};
+  auto results = std::vector<std::pair<timed_render, double>>{};
+  for (auto& m : modes) {
+    auto p         = params;
+    p.implicit_mis = m.mis;
+    p.mis          = m.type;
+    auto render    = render_for(scene, accel, lights, p, seconds, 1 << 30);
+    results.push_back({render, rmse(render.image, reference.image)});
+  }
+  auto index = 0;
+  for (auto& m : modes) {
+    auto& r = results[index++];
+    std::printf("| %s | %d | %.4f | %.2f |\n", m.name, r.first.samples, r.second,
+        r.second / results[1].second);
+  }
+  return 0;
+}
