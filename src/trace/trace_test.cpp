@@ -249,3 +249,31 @@ TEST_CASE("trace: absorbing glass is darker than clear glass") {
   auto fog = covered_mean(render(scene, params), count);
   CHECK(fog.y <= 1.02f);
 }
+
+TEST_CASE("trace: debug shaders") {
+  auto scene        = furnace_scene();
+  scene.materials[0].color = {0.25f, 0.5f, 0.75f};
+  auto params       = trace_params{};
+  params.resolution = 33;
+  params.samples    = 1;
+  auto centre = [&](shader_type shader) {
+    params.shader = shader;
+    return pixel(render(scene, params), 16, 16);
+  };
+  auto position = centre(shader_type::position);
+  CHECK(position.z == doctest::Approx(1.0f).epsilon(0.01));
+  auto color = centre(shader_type::color);
+  CHECK(color.y == doctest::Approx(0.5f));
+  auto front = centre(shader_type::frontfacing);
+  CHECK(front.y == 1);
+  // Eyelight: a matte surface seen head-on reflects its colour.
+  auto eyelight = centre(shader_type::eyelight);
+  CHECK(eyelight.z == doctest::Approx(0.75f).epsilon(0.02));
+  // Steps: a heat map over every pixel, hit or not.
+  params.shader = shader_type::steps;
+  auto image    = render(scene, params);
+  for (auto& p : image.pixels) {
+    CHECK(p.w == 1);
+    CHECK(isfinite(xyz(p)));
+  }
+}
