@@ -120,6 +120,9 @@ static void validate_options(app_options& opts) {
       (opts.frames > 0 || !opts.screenshot.empty() || !opts.orbit.empty()))
     throw CLI::ValidationError(
         "--frames", "--frames, --screenshot and --orbit need --interactive");
+  if (!opts.screenshot.empty() && opts.frames == 0)
+    throw CLI::ValidationError(
+        "--screenshot", "--screenshot needs --frames (it saves the last frame)");
   auto ext = opts.output.substr(opts.output.find_last_of('.') + 1);
   for (auto& c : ext) c = (char)std::tolower(c);
   if (opts.output.find('.') == std::string::npos ||

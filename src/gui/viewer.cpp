@@ -14,7 +14,6 @@
 #include <imgui.h>
 
 #include <cstdint>
-#include <cstdio>
 #include <cstdlib>
 #include <vector>
 
@@ -406,7 +405,7 @@ void run_viewer(scene_data& scene, const accel_data& accel,
            {window.x - viewer_panel_width, window.y});
     auto restart_needed = draw_panel(state, viewer, window, mouse, rect);
     restart_needed |= navigate(state);
-    if (viewer.frames > 0 && orbit && frame == viewer.orbit_frame)
+    if (orbit && frame == viewer.orbit_frame)
       restart_needed |= navigate_camera(state.cameras[state.params.camera],
           navigation_mode::orbit, viewer.orbit, 0);
     if (restart_needed) restart(state, worker);

@@ -27,9 +27,10 @@ struct viewer_params {
   float       exposure = 0;
   bool        filmic   = false;
   vec2i       window   = {1280 + viewer_panel_width, 720};
-  // Automation, for tests and screenshots. With frames > 0 the viewer closes
-  // once it has shown that many frames, every scripted drag is done and the
-  // render has all its samples; the last frame is then saved to screenshot.
+  // Automation, for tests and screenshots. The scripted drag happens at
+  // frame orbit_frame. With frames > 0 the viewer closes once it has shown
+  // that many frames, the drag is done and the render has all its samples;
+  // the last frame is then saved to screenshot.
   int         frames      = 0;
   std::string screenshot  = "";
   vec2f       orbit       = {0, 0};  // a left-button drag, in pixels
