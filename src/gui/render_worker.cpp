@@ -78,7 +78,9 @@ static void render_job_passes(
     render_worker& worker, const render_job& job, int64_t id) {
   auto& scene  = *worker.scene;
   auto& params = job.params;
-  scene.cameras[params.camera]         = job.camera;
+  scene.cameras[params.camera] = job.camera;
+  // The only march parameter the viewer edits: the others set hit_min in
+  // make_accel() and must stay as they were.
   worker.accel.march.max_iterations = params.march.max_iterations;
   if (params.pratio > 1) {
     auto preview = preview_params(params);

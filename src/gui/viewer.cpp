@@ -341,7 +341,8 @@ static bool draw_panel(viewer_state& state, const viewer_params& viewer,
 // VIEWER
 // -----------------------------------------------------------------------------
 
-// Frames per second while idle: input and new passes show within a frame.
+// Longest wait for input between frames (60 Hz): a finished pass shows
+// within a frame even when the user does nothing.
 static constexpr double frame_seconds = 1.0 / 60;
 
 // Drags, shift-drags, ctrl-drags and scrolls over the image move the camera;
@@ -382,9 +383,9 @@ void run_viewer(scene_data& scene, const accel_data& accel,
   start_worker(worker, scene, accel, lights);
   restart(state, worker);
 
-  auto frame       = 0;
-  auto orbit       = viewer.orbit.x != 0 || viewer.orbit.y != 0;
-  auto last_frame  = std::max(viewer.frames, orbit ? viewer.orbit_frame + 1 : 0);
+  auto frame      = 0;
+  auto orbit      = viewer.orbit.x != 0 || viewer.orbit.y != 0;
+  auto last_frame = std::max(viewer.frames, orbit ? viewer.orbit_frame + 1 : 0);
   while (!glfwWindowShouldClose(session.window)) {
     glfwWaitEventsTimeout(frame_seconds);
     frame += 1;
