@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -14,6 +15,9 @@
 #include "trace/trace.h"
 #include "util/error.h"
 #include "util/progress.h"
+#ifdef IMPLICIT_VIEWER
+#include "gui/viewer.h"
+#endif
 
 using namespace implicit;
 
@@ -36,6 +40,11 @@ struct app_options {
   int          savebatch   = 0;
   bool         interactive = false;
   bool         quiet       = false;
+  // Viewer automation (tests and screenshots).
+  int                frames      = 0;
+  std::string        screenshot  = "";
+  std::vector<float> orbit       = {};
+  int                orbit_frame = 1;
 };
 
 // Turn a name into an enum value using its names table.
@@ -87,6 +96,17 @@ static void add_options(CLI::App& app, app_options& opts) {
       ->check(CLI::Range(0, 1 << 20));
   app.add_flag("--interactive", opts.interactive, "Open the interactive viewer");
   app.add_flag("--quiet", opts.quiet, "No progress output");
+  auto automation = "Viewer automation";
+  app.add_option("--frames", opts.frames,
+      "Close the viewer after N frames, once every sample is rendered")
+      ->check(CLI::Range(0, 1 << 30))->group(automation);
+  app.add_option("--screenshot", opts.screenshot,
+      "Save the viewer's last frame to this image")->group(automation);
+  app.add_option("--orbit", opts.orbit,
+      "Drag the viewer's camera by DX,DY pixels at frame --orbit-frame")
+      ->delimiter(',')->expected(2)->group(automation);
+  app.add_option("--orbit-frame", opts.orbit_frame, "Frame of the --orbit drag")
+      ->check(CLI::Range(1, 1 << 30))->group(automation);
 }
 
 // Check the options that CLI11 cannot check alone.
@@ -96,6 +116,13 @@ static void validate_options(app_options& opts) {
   p.accel  = parse_enum<accel_type>("--accel", opts.accel, accel_type_names);
   p.mis    = parse_enum<mis_type>("--mis", opts.mis, mis_type_names);
   p.implicit_mis = !opts.noimplicitmis;
+  if (!opts.interactive &&
+      (opts.frames > 0 || !opts.screenshot.empty() || !opts.orbit.empty()))
+    throw CLI::ValidationError(
+        "--frames", "--frames, --screenshot and --orbit need --interactive");
+  if (!opts.screenshot.empty() && opts.frames == 0)
+    throw CLI::ValidationError(
+        "--screenshot", "--screenshot needs --frames (it saves the last frame)");
   auto ext = opts.output.substr(opts.output.find_last_of('.') + 1);
   for (auto& c : ext) c = (char)std::tolower(c);
   if (opts.output.find('.') == std::string::npos ||
@@ -116,7 +143,32 @@ static std::string batch_filename(const std::string& output, int samples) {
 // RENDER
 // -----------------------------------------------------------------------------
 
+// Open the viewer on the loaded scene.
+static void run_interactive(app_options& opts, scene_data& scene,
+    const accel_data& accel, const lights_data& lights) {
+#ifdef IMPLICIT_VIEWER
+  auto viewer        = viewer_params{};
+  viewer.name        = std::filesystem::path{opts.scene}.filename().string();
+  viewer.output      = opts.output;
+  viewer.exposure    = opts.exposure;
+  viewer.filmic      = opts.filmic;
+  viewer.frames      = opts.frames;
+  viewer.screenshot  = opts.screenshot;
+  viewer.orbit_frame = opts.orbit_frame;
+  if (opts.orbit.size() == 2) viewer.orbit = {opts.orbit[0], opts.orbit[1]};
+  run_viewer(scene, accel, lights, opts.params, viewer);
+#else
+  (void)opts, (void)scene, (void)accel, (void)lights;
+  throw io_error(
+      "this build has no interactive viewer (IMPLICIT_BUILD_VIEWER=OFF); run "
+      "without --interactive");
+#endif
+}
+
 static int run(app_options& opts) {
+#ifdef IMPLICIT_VIEWER
+  if (opts.interactive) check_display();  // before a long scene load
+#endif
   auto warnings = std::vector<std::string>{};
   auto scene    = load_scene(opts.scene, warnings);
   for (auto& warning : warnings) std::fprintf(stderr, "warning: %s\n", warning.c_str());
@@ -138,8 +190,8 @@ static int run(app_options& opts) {
   }
 
   if (opts.interactive) {
-    throw io_error(
-        "the interactive viewer is not available yet; run without --interactive");
+    run_interactive(opts, scene, accel, lights);
+    return 0;
   }
 
   auto state    = make_state(scene, params);

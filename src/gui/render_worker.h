@@ -1,0 +1,99 @@
+// # implicit: progressive rendering on a background thread
+//
+// The viewer's renderer, free of any window system: a worker thread that
+// renders a low-resolution preview (resolution / pratio, one sample) and then
+// adds one sample per pixel per pass to a trace_state, publishing the average
+// after each pass. The interface thread never waits for a pass: it posts jobs
+// and takes the latest finished image under a mutex held only for a swap. A
+// new job cancels the current one between tiles, so a restart costs at most
+// one 16x16 tile per thread, whatever the resolution.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <thread>
+
+#include "../trace/trace.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// PASSES
+// -----------------------------------------------------------------------------
+
+// Add one sample to every pixel as trace_samples() does (same pixels, same
+// random streams, so the same image), but stop between tiles once `latest`
+// no longer equals `job`. Returns false, leaving the state unusable, when it
+// stopped early.
+bool trace_samples_cancellable(trace_state& state, const scene_data& scene,
+    const accel_data& accel, const lights_data& lights,
+    const trace_params& params, const std::atomic<int64_t>& latest,
+    int64_t job);
+
+// The parameters of the preview: the resolution divided by pratio (at least
+// one pixel), one sample.
+trace_params preview_params(const trace_params& params);
+
+// -----------------------------------------------------------------------------
+// WORKER
+// -----------------------------------------------------------------------------
+
+// What to render: the parameters and the camera, which the worker copies into
+// the scene's slot params.camera before rendering.
+struct render_job {
+  trace_params params = {};
+  camera_data  camera = {};
+};
+
+// An image finished by the worker.
+struct render_update {
+  int64_t    job     = 0;      // id returned by restart_render()
+  image_data image   = {};     // linear RGBA, the average so far
+  int        samples = 0;      // samples per pixel in image
+  bool       preview = false;  // rendered at resolution / pratio
+  double     seconds = 0;      // time spent on the last pass
+};
+
+// The worker and what it shares with the interface thread. The thread reads
+// the scene, accel and lights given to start_worker() and writes only the
+// scene's camera slots; nothing else may write them while it runs.
+struct render_worker {
+  render_worker() = default;
+  render_worker(const render_worker&) = delete;
+  render_worker& operator=(const render_worker&) = delete;
+  ~render_worker();  // stops and joins the thread
+
+  scene_data*        scene  = nullptr;
+  accel_data         accel  = {};  // own copy: march.max_iterations varies
+  const lights_data* lights = nullptr;
+
+  std::thread             thread = {};
+  std::mutex              mutex  = {};
+  std::condition_variable wake   = {};
+  // Guarded by mutex.
+  render_job    job    = {};
+  bool          posted = false;  // job not yet picked up by the worker
+  bool          quit   = false;
+  render_update update = {};
+  bool          fresh  = false;  // update not yet taken
+  // Id of the newest job; the worker abandons a pass when it changes.
+  std::atomic<int64_t> latest = 0;
+};
+
+// Start the thread. The scene, accel and lights must outlive the worker.
+void start_worker(render_worker& worker, scene_data& scene,
+    const accel_data& accel, const lights_data& lights);
+
+// Cancel the current render and start `job`; returns its id at once.
+int64_t restart_render(render_worker& worker, const render_job& job);
+
+// Move out the latest finished image if there is one not yet taken; never
+// waits for a pass.
+bool take_update(render_worker& worker, render_update& update);
+
+// Stop the thread; waits at most for the tiles being rendered.
+void stop_worker(render_worker& worker);
+
+}  // namespace implicit

@@ -1,0 +1,213 @@
+// Tests for the viewer's background renderer: its passes are trace_samples'
+// passes, a new job cancels the old one at once, and what it publishes is
+// what the command line would render.
+
+#include "render_worker.h"
+
+#include <doctest/doctest.h>
+
+#include <chrono>
+#include <string>
+#include <thread>
+
+#include "navigation.h"
+#include "scene/scene_io.h"
+
+using namespace implicit;
+
+namespace {
+
+// The example scene, made ready for tracing as ypathtrace does.
+struct example_scene {
+  scene_data  scene  = {};
+  accel_data  accel  = {};
+  lights_data lights = {};
+};
+
+void load_example(example_scene& example, trace_params& params) {
+  example.scene = load_scene(
+      std::string{IMPLICIT_SOURCE_DIR} + "/examples/sdfunction/sdfunction.json");
+  example.accel = make_accel(example.scene, params.accel, params.march);
+  add_missing_camera(example.scene, example.accel.bounds);
+  params.camera  = find_camera(example.scene, "");
+  example.lights = make_lights(example.scene, example.accel);
+}
+
+// What `ypathtrace` renders for these parameters (the scene's own camera).
+image_data render_cli(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const trace_params& params) {
+  auto state = make_state(scene, params);
+  for (auto s = 0; s < params.samples; s++)
+    trace_samples(state, scene, accel, lights, params);
+  return get_render(state);
+}
+
+bool same_pixels(const image_data& a, const image_data& b) {
+  if (a.width != b.width || a.height != b.height) return false;
+  for (size_t idx = 0; idx < a.pixels.size(); idx++) {
+    auto p = a.pixels[idx], q = b.pixels[idx];
+    if (p.x != q.x || p.y != q.y || p.z != q.z || p.w != q.w) return false;
+  }
+  return true;
+}
+
+// Take updates until the job has all its samples (or give up after 30 s);
+// returns the last one and counts what was seen on the way.
+render_update wait_finished(render_worker& worker, int64_t job, int samples,
+    int& previews, int& backwards) {
+  auto last    = render_update{};
+  auto update  = render_update{};
+  auto seen    = 0;
+  auto timeout = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  previews = backwards = 0;
+  while (std::chrono::steady_clock::now() < timeout) {
+    if (take_update(worker, update)) {
+      if (update.job == job) {
+        if (update.preview) previews++;
+        if (!update.preview && update.samples < seen) backwards++;
+        if (!update.preview) seen = update.samples;
+        last = update;
+        if (!update.preview && update.samples == samples) return last;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  FAIL("the worker did not finish in 30 s");
+  return last;
+}
+
+}  // namespace
+
+TEST_CASE("render_worker: a cancellable pass is a trace_samples pass") {
+  auto params       = trace_params{};
+  params.resolution = 40;
+  auto example      = example_scene{};
+  load_example(example, params);
+  auto& [scene, accel, lights] = example;
+  auto reference = make_state(scene, params);
+  auto state     = make_state(scene, params);
+  auto latest    = std::atomic<int64_t>{7};
+  for (auto pass = 0; pass < 2; pass++) {
+    trace_samples(reference, scene, accel, lights, params);
+    CHECK(trace_samples_cancellable(state, scene, accel, lights, params, latest, 7));
+  }
+  CHECK(state.samples == 2);
+  CHECK(same_pixels(get_render(state), get_render(reference)));
+  CHECK(state.evaluations == reference.evaluations);
+
+  // A newer job: no tile is traced and the sample is not counted.
+  auto fresh = make_state(scene, params);
+  latest     = 8;
+  CHECK_FALSE(trace_samples_cancellable(fresh, scene, accel, lights, params, latest, 7));
+  CHECK(fresh.samples == 0);
+  auto traced = 0;
+  for (auto& p : fresh.accumulated) traced += (p.x != 0 || p.w != 0);
+  CHECK(traced == 0);
+}
+
+TEST_CASE("render_worker: preview parameters") {
+  auto params       = trace_params{};
+  params.resolution = 720;
+  params.samples    = 64;
+  params.pratio     = 8;
+  auto preview      = preview_params(params);
+  CHECK(preview.resolution == 90);
+  CHECK(preview.samples == 1);
+  CHECK(preview.seed == params.seed);
+  params.pratio = 1000;
+  CHECK(preview_params(params).resolution == 1);
+  params.pratio = 0;
+  CHECK(preview_params(params).resolution == 720);
+}
+
+TEST_CASE("render_worker: preview, then every sample, ending on the CLI image") {
+  auto params       = trace_params{};
+  params.resolution = 48;
+  params.samples    = 3;
+  params.pratio     = 4;
+  auto example      = example_scene{};
+  load_example(example, params);
+  auto expected = render_cli(example.scene, example.accel, example.lights, params);
+  auto camera   = example.scene.cameras[params.camera];
+
+  auto worker = render_worker{};
+  start_worker(worker, example.scene, example.accel, example.lights);
+  auto job      = restart_render(worker, {params, camera});
+  auto previews = 0, backwards = 0;
+  auto last     = wait_finished(worker, job, params.samples, previews, backwards);
+  CHECK(previews <= 1);
+  CHECK(backwards == 0);
+  CHECK(last.samples == 3);
+  CHECK_FALSE(last.preview);
+  CHECK(same_pixels(last.image, expected));
+  // Done: nothing more comes.
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  auto extra = render_update{};
+  CHECK_FALSE(take_update(worker, extra));
+
+  // The preview alone (samples = 1 at full resolution follows it): its size
+  // is the resolution divided by pratio.
+  params.samples = 1;
+  params.pratio  = 48;
+  job            = restart_render(worker, {params, camera});
+  auto update    = render_update{};
+  auto sizes_ok  = true;
+  auto timeout   = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < timeout) {
+    if (!take_update(worker, update)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      continue;
+    }
+    if (update.job != job) continue;
+    auto size = camera_resolution(
+        camera, update.preview ? 1 : params.resolution);
+    sizes_ok &= update.image.width == size.x && update.image.height == size.y;
+    if (!update.preview) break;
+  }
+  CHECK(sizes_ok);
+  CHECK_FALSE(update.preview);
+  stop_worker(worker);
+}
+
+TEST_CASE("render_worker: a new job cancels the running one") {
+  auto params       = trace_params{};
+  params.resolution = 64;
+  params.pratio     = 8;
+  auto example      = example_scene{};
+  load_example(example, params);
+  auto camera = example.scene.cameras[params.camera];
+
+  auto worker = render_worker{};
+  start_worker(worker, example.scene, example.accel, example.lights);
+  // A job of a million samples: only cancellation lets the next one run.
+  auto slow    = params;
+  slow.samples = 1 << 20;
+  restart_render(worker, {slow, camera});
+  std::this_thread::sleep_for(std::chrono::milliseconds(30));
+
+  auto moved = camera;
+  navigate_camera(moved, navigation_mode::orbit, {40, 10}, 0);
+  auto fast                   = params;
+  fast.samples                = 2;
+  fast.march.max_iterations   = 3;  // the worker's own accel must follow
+  fast.shader                 = shader_type::normal;
+  auto job                    = restart_render(worker, {fast, moved});
+  auto previews = 0, backwards = 0;
+  auto last = wait_finished(worker, job, fast.samples, previews, backwards);
+  stop_worker(worker);
+  CHECK(last.samples == 2);
+  CHECK(backwards == 0);
+
+  // The same image rendered directly with the moved camera and the
+  // iteration cap, and different from the unmoved camera's.
+  auto scene                    = example.scene;  // has `moved` in its slot
+  CHECK(scene.cameras[params.camera].frame.o == moved.frame.o);
+  auto capped                   = example.accel;
+  capped.march.max_iterations   = 3;
+  auto expected = render_cli(scene, capped, example.lights, fast);
+  CHECK(same_pixels(last.image, expected));
+  scene.cameras[params.camera]  = camera;
+  CHECK_FALSE(same_pixels(last.image, render_cli(scene, capped, example.lights, fast)));
+  auto uncapped = render_cli(example.scene, example.accel, example.lights, fast);
+  CHECK_FALSE(same_pixels(last.image, uncapped));
+}
