@@ -2,9 +2,6 @@
 
 #include "render_worker.h"
 
-#include <tbb/blocked_range2d.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <chrono>
 #include <utility>
@@ -15,35 +12,14 @@ namespace implicit {
 // PASSES
 // -----------------------------------------------------------------------------
 
-// Tile size of a pass, as in trace_samples(): also the granularity at which
-// a pass notices that it was cancelled.
-static constexpr int tile_size = 16;
-
 // One sample per pixel, abandoned between tiles when a newer job arrives.
 bool trace_samples_cancellable(trace_state& state, const scene_data& scene,
     const accel_data& accel, const lights_data& lights,
     const trace_params& params, const std::atomic<int64_t>& latest,
     int64_t job) {
-  auto stopped = std::atomic<bool>{false};
-  auto range   = tbb::blocked_range2d<int>(
-      0, state.height, tile_size, 0, state.width, tile_size);
-  tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& tile) {
-    if (latest.load(std::memory_order_relaxed) != job) {
-      stopped.store(true, std::memory_order_relaxed);
-      return;
-    }
-    for (auto j = tile.rows().begin(); j < tile.rows().end(); j++) {
-      for (auto i = tile.cols().begin(); i < tile.cols().end(); i++) {
-        auto idx = (size_t)j * state.width + i;
-        state.accumulated[idx] += trace_pixel(scene, accel, lights, params, i,
-            j, state.width, state.height, state.rngs[idx],
-            state.evaluations[idx]);
-      }
-    }
+  return trace_samples_until(state, scene, accel, lights, params, [&] {
+    return latest.load(std::memory_order_relaxed) != job;
   });
-  if (stopped.load()) return false;
-  state.samples += 1;
-  return true;
 }
 
 // Resolution / pratio, one sample.

@@ -400,20 +400,23 @@ vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
   return {rgb.x, rgb.y, rgb.z, alpha};
 }
 
+void trace_tile(trace_state& state, const scene_data& scene,
+    const accel_data& accel, const lights_data& lights,
+    const trace_params& params, int i0, int i1, int j0, int j1) {
+  for (auto j = j0; j < j1; j++) {
+    for (auto i = i0; i < i1; i++) {
+      auto idx = (size_t)j * state.width + i;
+      state.accumulated[idx] += trace_pixel(scene, accel, lights, params, i, j,
+          state.width, state.height, state.rngs[idx], state.evaluations[idx]);
+    }
+  }
+}
+
 void trace_samples(trace_state& state, const scene_data& scene,
     const accel_data& accel, const lights_data& lights,
     const trace_params& params) {
-  auto range = tbb::blocked_range2d<int>(0, state.height, 16, 0, state.width, 16);
-  tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& tile) {
-    for (auto j = tile.rows().begin(); j < tile.rows().end(); j++) {
-      for (auto i = tile.cols().begin(); i < tile.cols().end(); i++) {
-        auto idx = (size_t)j * state.width + i;
-        state.accumulated[idx] += trace_pixel(scene, accel, lights, params, i,
-            j, state.width, state.height, state.rngs[idx], state.evaluations[idx]);
-      }
-    }
-  });
-  state.samples += 1;
+  trace_samples_until(
+      state, scene, accel, lights, params, [] { return false; });
 }
 
 image_data get_render(const trace_state& state) {

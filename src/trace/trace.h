@@ -6,6 +6,10 @@
 // and the viewer drive the same functions.
 #pragma once
 
+#include <tbb/blocked_range2d.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -70,11 +74,38 @@ struct trace_state {
 // Size the state for the camera and resolution and seed the generators.
 trace_state make_state(const scene_data& scene, const trace_params& params);
 
+// Add one sample to the pixels of columns [i0, i1) and rows [j0, j1).
+void trace_tile(trace_state& state, const scene_data& scene,
+    const accel_data& accel, const lights_data& lights,
+    const trace_params& params, int i0, int i1, int j0, int j1);
+
 // Add one sample to every pixel (parallel over tiles; the result does not
 // depend on the thread count).
 void trace_samples(trace_state& state, const scene_data& scene,
     const accel_data& accel, const lights_data& lights,
     const trace_params& params);
+
+// The same, asking `cancelled()` before each 16x16 tile (the viewer restarts
+// renders this way). Returns false when it stopped early: the state then
+// holds a partial pass and must be discarded.
+template <typename Cancelled>
+inline bool trace_samples_until(trace_state& state, const scene_data& scene,
+    const accel_data& accel, const lights_data& lights,
+    const trace_params& params, const Cancelled& cancelled) {
+  auto stopped = std::atomic<bool>{false};
+  auto range   = tbb::blocked_range2d<int>(0, state.height, 16, 0, state.width, 16);
+  tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& tile) {
+    if (stopped.load(std::memory_order_relaxed) || cancelled()) {
+      stopped.store(true, std::memory_order_relaxed);
+      return;
+    }
+    trace_tile(state, scene, accel, lights, params, tile.cols().begin(),
+        tile.cols().end(), tile.rows().begin(), tile.rows().end());
+  });
+  if (stopped.load()) return false;
+  state.samples += 1;
+  return true;
+}
 
 // Average of the samples so far (linear RGBA, alpha = coverage).
 image_data get_render(const trace_state& state);
