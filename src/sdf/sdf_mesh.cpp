@@ -44,6 +44,73 @@ double mesh_volume(const mesh_data& mesh) {
 // CONVERSIONS
 // -----------------------------------------------------------------------------
 
+// Half width, in voxels, of the exact band of mesh_to_grid().
+static constexpr int grid_mesh_band = 3;
+
+// One line of the exact squared Euclidean distance transform of sampled
+// functions (Felzenszwalb & Huttenlocher, Theory of Computing 8, 2012):
+// d[q] = min_p (q - p)^2 + f[p]. v, z are work arrays of n and n+1.
+static void distance_transform_line(
+    const double* f, int n, double* d, int* v, double* z) {
+  auto k = 0;
+  v[0]   = 0;
+  z[0]   = -1e300;
+  z[1]   = 1e300;
+  for (auto q = 1; q < n; q++) {
+    // Drop the parabolas the new one hides; z[0] is below any s.
+    auto s = 0.0;
+    for (;;) {
+      auto p = v[k];
+      s = ((f[q] + (double)q * q) - (f[p] + (double)p * p)) / (2.0 * (q - p));
+      if (s > z[k]) break;
+      k--;
+    }
+    k++;
+    v[k]     = q;
+    z[k]     = s;
+    z[k + 1] = 1e300;
+  }
+  k = 0;
+  for (auto q = 0; q < n; q++) {
+    while (z[k + 1] < q) k++;
+    d[q] = (double)(q - v[k]) * (q - v[k]) + f[v[k]];
+  }
+}
+
+// In place: 0 at seeds, anything else becomes the squared distance in
+// voxels to the nearest seed (three separable passes).
+static void distance_transform(std::vector<float>& values, vec3i n) {
+  // A finite "infinity" keeps the parabola intersections exact in double.
+  auto infinity = 16.0 * ((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z);
+  int  stride[3] = {1, n.x, n.x * n.y};
+  int  length[3] = {n.x, n.y, n.z};
+  for (auto axis = 0; axis < 3; axis++) {
+    auto lines = (int)(values.size() / (size_t)length[axis]);
+    tbb::parallel_for(tbb::blocked_range<int>(0, lines),
+        [&](const tbb::blocked_range<int>& range) {
+          auto m = length[axis];
+          auto f = std::vector<double>(m), d = std::vector<double>(m),
+               z = std::vector<double>(m + 1);
+          auto v = std::vector<int>(m);
+          for (auto line = range.begin(); line != range.end(); line++) {
+            // The line's first sample: the other two coordinates.
+            auto start = size_t{0};
+            if (axis == 0) start = (size_t)line * n.x;
+            if (axis == 1) start = (size_t)(line % n.x) + (size_t)(line / n.x) * n.x * n.y;
+            if (axis == 2) start = (size_t)line;
+            for (auto q = 0; q < m; q++) {
+              auto value = values[start + (size_t)q * stride[axis]];
+              f[q]       = value == flt_max ? infinity : value;
+            }
+            distance_transform_line(f.data(), m, d.data(), v.data(), z.data());
+            for (auto q = 0; q < m; q++)
+              values[start + (size_t)q * stride[axis]] =
+                  (float)std::min(d[q], infinity);
+          }
+        });
+  }
+}
+
 grid_data mesh_to_grid(
     const mesh_data& mesh, float voxel, int padding, float shell) {
   if (!(voxel > 0) || !std::isfinite(voxel))
@@ -82,10 +149,10 @@ grid_data mesh_to_grid(
     triangles.emplace_back((unsigned)t.x, (unsigned)t.y, (unsigned)t.z);
   auto quads     = std::vector<openvdb::Vec4I>{};
   auto transform = openvdb::math::Transform::createLinearTransform(voxel);
-  // A band as wide as the grid makes every sample an exact distance.
-  auto band = (float)max(vec3f{(float)grid.dims.x, (float)grid.dims.y,
-                  (float)grid.dims.z}) +
-              1;
+  // Exact distances in a narrow band only: OpenVDB grows the band in every
+  // direction, not just inside our box, so a band as wide as the grid costs
+  // minutes; the far samples get a distance bound below.
+  auto band      = (float)grid_mesh_band;
   auto level_set = openvdb::FloatGrid::Ptr{};
   try {
     if (shell > 0) {
@@ -99,21 +166,41 @@ grid_data mesh_to_grid(
     throw io_error(std::string("mesh: OpenVDB conversion failed: ") + e.what());
   }
 
-  // Densify, one z slice per task (each with its own accessor).
-  auto& n = grid.dims;
+  // Densify, one z slice per task (each with its own accessor). Active
+  // voxels are the band; the others hold +-background with the right sign.
+  auto& n     = grid.dims;
+  auto  count = grid.values.size();
+  auto  far   = std::vector<float>(count, 0);  // squared voxels to the band
   tbb::parallel_for(tbb::blocked_range<int>(0, n.z),
       [&](const tbb::blocked_range<int>& slices) {
         auto accessor = level_set->getConstAccessor();
         for (auto k = slices.begin(); k != slices.end(); k++) {
           auto index = (size_t)n.x * (size_t)n.y * (size_t)k;
           for (auto j = 0; j < n.y; j++) {
-            for (auto i = 0; i < n.x; i++) {
-              grid.values[index++] =
-                  accessor.getValue(min_coord.offsetBy(i, j, k)) - shell;
+            for (auto i = 0; i < n.x; i++, index++) {
+              auto ijk            = min_coord.offsetBy(i, j, k);
+              grid.values[index]  = accessor.getValue(ijk);
+              far[index]          = accessor.isValueOn(ijk) ? 0 : flt_max;
             }
           }
         }
       });
+  distance_transform(far, n);
+  // Outside the band a lower bound: every sample with |d| < w is active
+  // (OpenVDB keeps about w = band - 0.2 voxels; we assume band - 1). For p
+  // outside, s its closest surface point and q on [p, s] with
+  // |d(q)| = l < w - sqrt(3)/2 voxels, the sample c nearest to q is active,
+  // so EDT(p) <= |p - c| <= |p - q| + sqrt(3)/2 = |d(p)| - l + sqrt(3)/2:
+  // |d(p)| >= EDT(p) + w - sqrt(3) voxels (and >= w, being inactive).
+  auto width = (band - 1) * voxel;
+  for (auto i = size_t{0}; i < count; i++) {
+    if (far[i] == 0) {
+      grid.values[i] -= shell;
+      continue;
+    }
+    auto bound = width + std::max(0.0f, std::sqrt(far[i]) - 1.7320508f) * voxel;
+    grid.values[i] = std::copysign(bound, grid.values[i]) - shell;
+  }
   update_grid_accel(grid);
   if (shell <= 0 && grid.brick_ranges.size() != 0) {
     // Samples lying on the faces of an open mesh come out as -1e-7: only a

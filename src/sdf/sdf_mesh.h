@@ -36,14 +36,15 @@ double mesh_volume(const mesh_data& mesh);
 // Signed distance grid of a closed mesh: samples every `voxel` on the
 // lattice voxel*(i,j,k) of world space, covering the mesh's bounds plus
 // `padding` voxels; the grid's origin is its first sample. Distances are
-// exact everywhere in the grid (OpenVDB meshToSignedDistanceField with a
-// band as wide as the grid).
+// exact within 3 voxels of the surface (OpenVDB meshToSignedDistanceField);
+// farther samples get a lower bound, about 2 voxels short, from an exact
+// Euclidean distance transform to the band (so sphere tracing stays safe).
 // The sign of a non-closed mesh is undefined: OpenVDB floods the outside in
 // through the holes, so the solid shrinks or vanishes; when no sample ends
 // up clearly inside (below -0.001 voxel), this throws an io_error that says
-// so. With `shell` > 0 the
-// grid is instead the unsigned distance minus `shell`: a closed shell of
-// that half thickness around any mesh, open or not.
+// so. With `shell` > 0 the grid is instead the unsigned distance minus
+// `shell`: a closed shell of that half thickness around any mesh, open or
+// not.
 grid_data mesh_to_grid(
     const mesh_data& mesh, float voxel, int padding, float shell = 0);
 

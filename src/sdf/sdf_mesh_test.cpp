@@ -179,17 +179,27 @@ TEST_CASE("grid mesh to grid and back") {
   CHECK(grid.origin.x <= 0.1f - 3 * voxel + 1e-6f);
   CHECK(grid.origin.x >= 0.1f - 4 * voxel - 1e-6f);
   CHECK(std::abs(grid.origin.x / voxel - std::round(grid.origin.x / voxel)) < 1e-4f);
-  auto worst = 0.0f;
+  // Exact in the band; beyond it a lower bound about 2 voxels short.
+  auto worst_band = 0.0f, worst_over = 0.0f, worst_under = 0.0f;
+  auto wrong_sign = 0;
   for (auto k = 0; k < grid.dims.z; k++)
     for (auto j = 0; j < grid.dims.y; j++)
       for (auto i = 0; i < grid.dims.x; i++) {
         auto p = grid.origin + vec3f{(float)i, (float)j, (float)k} * voxel -
                  vec3f{0.35f, 0.45f, 0.55f};
-        auto d = abs(p) - 0.25f;
+        auto d     = abs(p) - 0.25f;
         auto exact = std::min(max(d), 0.0f) + length(max(d, 0.0f));
-        worst = std::max(worst, std::abs(grid_value(grid, i, j, k) - exact));
+        auto value = grid_value(grid, i, j, k);
+        if (std::abs(exact) < 2.5f * voxel)
+          worst_band = std::max(worst_band, std::abs(value - exact));
+        worst_over  = std::max(worst_over, std::abs(value) - std::abs(exact));
+        worst_under = std::max(worst_under, std::abs(exact) - std::abs(value));
+        if (std::abs(exact) > 0.1f * voxel && (value < 0) != (exact < 0)) wrong_sign++;
       }
-  CHECK(worst < 0.05f * voxel);
+  CHECK(worst_band < 0.05f * voxel);
+  CHECK(worst_over < 0.05f * voxel);
+  CHECK(worst_under < 2.5f * voxel);
+  CHECK(wrong_sign == 0);
 
   // Back to a mesh: closed, outward, the cube's volume.
   auto back = grid_to_mesh(grid);
