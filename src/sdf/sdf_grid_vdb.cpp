@@ -48,15 +48,23 @@ static float uniform_voxel_size(const openvdb::math::Transform& transform) {
 grid_data load_vdb_grid(const std::string& filename) {
   init_openvdb();
   // Read through a stream that throws on a short read: io::File ignores
-  // them, so a truncated file would load with garbage voxels.
+  // them, so a truncated file would load with garbage voxels. Without
+  // delayed loading, since that copies the stream to a temporary file.
+  // OpenVDB itself trusts the length fields it reads (util/Name.h
+  // readString allocates the length it finds), so a corrupt, not truncated,
+  // file can make it allocate up to 4 GiB before it fails; we can not check
+  // inside the library.
   auto file  = mapped_file{filename};
   auto grids = openvdb::GridPtrVecPtr{};
   try {
     auto stream = std::istringstream(std::string(file.data, file.size));
     stream.exceptions(std::ios::failbit | std::ios::badbit);
-    grids = openvdb::io::Stream(stream).getGrids();
+    grids = openvdb::io::Stream(stream, false).getGrids();
+  } catch (const std::ios_base::failure&) {
+    throw_io_error(filename, "not a readable OpenVDB file: truncated or corrupt "
+                             "(a read ran past the end)");
   } catch (const std::exception& error) {
-    // OpenVDB throws its own exceptions, std::ios failures and bad_alloc.
+    // OpenVDB throws its own exceptions, and bad_alloc for garbage sizes.
     throw_io_error(filename, std::string("not a readable OpenVDB file: ") + error.what());
   }
   if (!grids) throw_io_error(filename, "not a readable OpenVDB file");

@@ -1,0 +1,457 @@
+// # ysdf: the companion tool for SDF grids
+//
+//   ysdf info FILE                       header and statistics
+//   ysdf convert IN OUT                  between formats (by extension)
+//   ysdf bake OUT --voxel S --shape ...  analytic SDFs (or a scene) -> grid
+//   ysdf from-mesh MESH OUT --voxel S    triangle mesh -> grid (OpenVDB)
+//   ysdf to-mesh GRID OUT                grid -> triangle mesh (OpenVDB)
+//
+// Grid formats by extension: .vdb (OpenVDB level set), .vol (Mitsuba 3),
+// .sdf/.df/.vox2 (SDFGen text or skanti binary; reading detects which from
+// the first bytes unless --binary or --text says so, writing makes text
+// unless --binary). Errors print one line `ysdf: <message>`, exit code 1.
+
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "scene/scene_io.h"
+#include "sdf/sdf_grid.h"
+#include "sdf/sdf_grid_io.h"
+#include "sdf/sdf_mesh.h"
+#include "sdf/sdf_mesh_io.h"
+#include "sdf/sdf_program.h"
+#include "util/error.h"
+
+using namespace implicit;
+
+namespace {
+
+// -----------------------------------------------------------------------------
+// FORMATS AND MESSAGES
+// -----------------------------------------------------------------------------
+
+// Lower-case extension with the dot.
+std::string extension(const std::string& filename) {
+  auto slash = filename.find_last_of('/');
+  auto dot   = filename.rfind('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash))
+    return "";
+  auto ext = filename.substr(dot);
+  for (auto& c : ext) c = (char)std::tolower((unsigned char)c);
+  return ext;
+}
+
+// Format of a grid to read: by extension, then by the first bytes (SDFGen
+// text starts with digits and spaces, a skanti header with int32 dims).
+grid_format input_format(const std::string& filename, bool binary, bool text) {
+  auto ext = extension(filename);
+  if (ext == ".vdb") return grid_format::vdb;
+  if (ext == ".vol") return grid_format::mitsuba;
+  if (binary) return grid_format::skanti;
+  if (text) return grid_format::sdfgen;
+  auto in = std::ifstream(filename, std::ios::binary);
+  char head[16];
+  in.read(head, sizeof(head));
+  for (auto i = 0; i < (int)in.gcount(); i++) {
+    auto c = head[i];
+    if (!std::isdigit((unsigned char)c) && !std::isspace((unsigned char)c) &&
+        c != '-' && c != '+' && c != '.' && c != 'e' && c != 'E')
+      return grid_format::skanti;
+  }
+  return grid_format::sdfgen;
+}
+
+// Format of a grid to write: by extension; .sdf is text unless --binary.
+grid_format output_format(const std::string& filename, bool binary) {
+  auto ext = extension(filename);
+  if (ext == ".vdb") return grid_format::vdb;
+  if (ext == ".vol") return grid_format::mitsuba;
+  if (ext == ".df" || ext == ".vox2") return grid_format::skanti;
+  if (ext == ".sdf") return binary ? grid_format::skanti : grid_format::sdfgen;
+  throw_io_error(filename,
+      "unknown grid extension '" + ext + "' (use .sdf, .vdb or .vol)");
+}
+
+std::string format_label(grid_format format) {
+  switch (format) {
+    case grid_format::sdfgen: return "sdfgen (SDFGen text)";
+    case grid_format::skanti: return "skanti (binary, 80-byte header)";
+    case grid_format::vdb: return "vdb (OpenVDB float level set)";
+    case grid_format::mitsuba: return "mitsuba (VOL v3, float32)";
+  }
+  return "";
+}
+
+// Progress and notes on stderr, unless --quiet.
+struct reporter {
+  bool quiet    = false;
+  bool terminal = false;
+};
+
+void note(const reporter& r, const std::string& message) {
+  if (!r.quiet) std::fprintf(stderr, "ysdf: %s\n", message.c_str());
+}
+
+// A progress line rewritten in place on a terminal.
+void progress(const reporter& r, const std::string& what, int done, int total) {
+  if (r.quiet || !r.terminal) return;
+  std::fprintf(stderr, "\rysdf: %s %3d%%", what.c_str(),
+      total > 0 ? (int)(100.0 * done / total) : 100);
+  if (done >= total) std::fprintf(stderr, "\n");
+  std::fflush(stderr);
+}
+
+std::string vec_text(vec3f v) {
+  char buffer[96];
+  std::snprintf(buffer, sizeof(buffer), "%g %g %g", v.x, v.y, v.z);
+  return buffer;
+}
+
+std::string dims_text(vec3i d) {
+  return std::to_string(d.x) + " x " + std::to_string(d.y) + " x " +
+         std::to_string(d.z);
+}
+
+// Seconds since `start`.
+double elapsed(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+void save_and_report(const reporter& r, const std::string& filename,
+    const grid_data& grid, bool binary) {
+  auto format = output_format(filename, binary);
+  save_grid(filename, grid, format);
+  note(r, "wrote " + filename + ": " + grid_format_names[(int)format] + ", " +
+              dims_text(grid.dims) + " samples, spacing " +
+              std::to_string(grid.spacing) + ", origin " + vec_text(grid.origin));
+}
+
+// -----------------------------------------------------------------------------
+// INFO
+// -----------------------------------------------------------------------------
+
+void run_info(const std::string& filename, bool binary, bool text) {
+  auto format = input_format(filename, binary, text);
+  auto start  = std::chrono::steady_clock::now();
+  auto grid   = load_grid(filename, format);
+  auto load_s = elapsed(start);
+  auto stats  = compute_grid_stats(grid);
+  auto extent = grid_bounds(grid).max;
+  std::printf("file:     %s\n", filename.c_str());
+  std::printf("format:   %s\n", format_label(format).c_str());
+  std::printf("dims:     %s (%lld samples)\n", dims_text(grid.dims).c_str(),
+      (long long)grid_samples(grid.dims));
+  std::printf("spacing:  %g\n", grid.spacing);
+  std::printf("origin:   %s (first sample in file units)\n",
+      vec_text(grid.origin).c_str());
+  std::printf("extent:   %s\n", vec_text(extent).c_str());
+  std::printf("values:   %g .. %g\n", stats.min, stats.max);
+  std::printf("inside:   %lld samples < 0\n", (long long)stats.negative_samples);
+  std::printf("surface:  %lld voxels with a zero crossing\n",
+      (long long)stats.surface_voxels);
+  std::printf("boundary: %lld samples < 0 on the box%s\n",
+      (long long)stats.negative_boundary,
+      stats.negative_boundary ? " (the box closes the surface there)" : "");
+  std::printf("memory:   %.2f MiB (samples and bricks)\n",
+      grid_memory(grid) / (1024.0 * 1024.0));
+  std::printf("loaded:   %.3f s\n", load_s);
+  if (stats.min > 0)
+    std::printf(
+        "note:     every value is > 0: no surface (an unsigned distance "
+        "field?); it renders as nothing\n");
+  if (stats.max < 0)
+    std::printf("note:     every value is < 0: the solid fills the box\n");
+}
+
+// -----------------------------------------------------------------------------
+// BAKE
+// -----------------------------------------------------------------------------
+
+// One shape of the command line: "TYPE key=value ..." with keys radius,
+// radius2, height, thickness, size=x,y,z and at=x,y,z (where the shape's
+// local origin goes); a leading '-' subtracts it.
+struct shape_spec {
+  sdf_node node     = {};
+  vec3f    at       = {0, 0, 0};
+  bool     subtract = false;
+};
+
+float parse_float(const std::string& text, const std::string& spec) {
+  try {
+    auto used  = size_t{0};
+    auto value = std::stof(text, &used);
+    if (used == text.size() && std::isfinite(value)) return value;
+  } catch (const std::exception&) {
+  }
+  throw io_error("--shape \"" + spec + "\": '" + text + "' is not a number");
+}
+
+vec3f parse_vec3(const std::string& text, const std::string& spec) {
+  auto parts = std::vector<std::string>{};
+  auto item  = std::string{};
+  auto in    = std::istringstream(text);
+  while (std::getline(in, item, ',')) parts.push_back(item);
+  if (parts.size() != 3)
+    throw io_error("--shape \"" + spec + "\": '" + text + "' needs 3 values x,y,z");
+  return {parse_float(parts[0], spec), parse_float(parts[1], spec),
+      parse_float(parts[2], spec)};
+}
+
+shape_spec parse_shape(const std::string& spec) {
+  auto words = std::vector<std::string>{};
+  auto in    = std::istringstream(spec);
+  for (auto word = std::string{}; in >> word;) words.push_back(word);
+  if (words.empty()) throw io_error("--shape: empty shape");
+  auto shape = shape_spec{};
+  auto type  = words[0];
+  if (!type.empty() && type[0] == '-') {
+    shape.subtract = true;
+    type           = type.substr(1);
+  }
+  auto found = false;
+  for (auto i = 0; i < (int)sdf_type_names.size(); i++) {
+    if (sdf_type_names[i] == type && is_primitive((sdf_type)i)) {
+      shape.node.type = (sdf_type)i;
+      found           = true;
+    }
+  }
+  if (!found) {
+    auto names = std::string{};
+    for (auto i = 0; i < (int)sdf_type_names.size(); i++)
+      if (is_primitive((sdf_type)i)) names += " " + sdf_type_names[i];
+    throw io_error("--shape \"" + spec + "\": unknown type '" + type +
+                   "'; types:" + names);
+  }
+  for (auto i = size_t{1}; i < words.size(); i++) {
+    auto eq = words[i].find('=');
+    if (eq == std::string::npos)
+      throw io_error("--shape \"" + spec + "\": '" + words[i] + "' is not key=value");
+    auto key = words[i].substr(0, eq), value = words[i].substr(eq + 1);
+    if (key == "radius") shape.node.radius = parse_float(value, spec);
+    else if (key == "radius2") shape.node.radius2 = parse_float(value, spec);
+    else if (key == "height") shape.node.height = parse_float(value, spec);
+    else if (key == "thickness") shape.node.thickness = parse_float(value, spec);
+    else if (key == "size") shape.node.size = parse_vec3(value, spec);
+    else if (key == "at") shape.at = parse_vec3(value, spec);
+    else
+      throw io_error("--shape \"" + spec + "\": unknown key '" + key +
+                     "'; keys: radius radius2 height thickness size at");
+  }
+  return shape;
+}
+
+// Union (smooth with blend > 0) of the shapes, minus the subtracted ones.
+sdf_program make_shapes_program(const std::vector<shape_spec>& shapes, float blend) {
+  auto program = sdf_program{};
+  auto root    = invalidid;
+  for (auto pass : {false, true}) {
+    for (auto& shape : shapes) {
+      if (shape.subtract != pass) continue;
+      auto node = append_program(program, make_primitive_program(shape.node));
+      if (shape.at != vec3f{0, 0, 0})
+        node = add_transform(program, node, frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -shape.at});
+      if (root == invalidid) {
+        if (pass) throw io_error("--shape: subtracting from nothing");
+        root = node;
+        continue;
+      }
+      auto op  = sdf_node{};
+      op.type  = pass ? (blend > 0 ? sdf_type::op_smooth_subtraction : sdf_type::op_subtraction)
+                      : (blend > 0 ? sdf_type::op_smooth_union : sdf_type::op_union);
+      op.left  = root;
+      op.right = node;
+      op.blend = blend;
+      root     = add_node(program, op);
+    }
+  }
+  return program;
+}
+
+// Union of a scene's sdfunctions, each in its own frame.
+sdf_program make_scene_program(const std::string& filename) {
+  auto scene   = load_scene(filename);
+  auto program = sdf_program{};
+  auto root    = invalidid;
+  for (auto& function : scene.sdfunctions) {
+    auto node = append_program(program, function.program);
+    node      = add_transform(program, node, function.local_from_world);
+    if (root != invalidid) {
+      auto op  = sdf_node{};
+      op.type  = sdf_type::op_union;
+      op.left  = root;
+      op.right = node;
+      node     = add_node(program, op);
+    }
+    root = node;
+  }
+  if (root == invalidid) throw_io_error(filename, "the scene has no sdfunctions");
+  return program;
+}
+
+struct bake_options {
+  std::string              output = "";
+  std::string              scene  = "";
+  std::vector<std::string> shapes = {};
+  std::vector<float>       bounds = {};
+  float                    voxel  = 0;
+  float                    blend  = 0;
+  int                      pad    = 2;
+  bool                     binary = false;
+};
+
+void run_bake(const bake_options& options, const reporter& r) {
+  if (options.scene.empty() == options.shapes.empty())
+    throw io_error("bake: give either --scene or one or more --shape");
+  if (options.pad < 0) throw io_error("bake: --pad must be >= 0");
+  auto program = sdf_program{};
+  if (!options.scene.empty()) {
+    program = make_scene_program(options.scene);
+  } else {
+    auto shapes = std::vector<shape_spec>{};
+    for (auto& spec : options.shapes) shapes.push_back(parse_shape(spec));
+    program = make_shapes_program(shapes, options.blend);
+  }
+  auto bounds = sdf_bounds(program);
+  if (!options.bounds.empty()) {
+    auto& b = options.bounds;
+    bounds  = {{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
+  } else if (!is_finite(bounds) || is_empty(bounds)) {
+    throw io_error("bake: the shapes are unbounded (a plane?); give --bounds");
+  }
+  bounds     = expand(bounds, options.pad * options.voxel);
+  auto start = std::chrono::steady_clock::now();
+  auto grid  = bake_grid(program, identity_frame, bounds, options.voxel,
+       [&](int done, int total) { progress(r, "baking", done, total); });
+  note(r, "baked " + std::to_string(grid_samples(grid.dims)) + " samples in " +
+              std::to_string(elapsed(start)) + " s");
+  save_and_report(r, options.output, grid, options.binary);
+}
+
+// -----------------------------------------------------------------------------
+// MESHES
+// -----------------------------------------------------------------------------
+
+void run_from_mesh(const std::string& input, const std::string& output,
+    float voxel, int pad, float shell, bool binary, const reporter& r) {
+  auto start = std::chrono::steady_clock::now();
+  auto mesh  = load_mesh(input);
+  note(r, "read " + std::to_string(mesh.positions.size()) + " vertices, " +
+              std::to_string(mesh.triangles.size()) + " triangles in " +
+              std::to_string(elapsed(start)) + " s");
+  start = std::chrono::steady_clock::now();
+  note(r, "converting with OpenVDB meshToVolume (voxel " + std::to_string(voxel) + ")...");
+  auto grid = grid_data{};
+  try {
+    grid = mesh_to_grid(mesh, voxel, pad, shell);
+  } catch (const io_error& error) {
+    throw_io_error(input, error.what());
+  }
+  note(r, "converted in " + std::to_string(elapsed(start)) + " s");
+  save_and_report(r, output, grid, binary);
+}
+
+void run_to_mesh(const std::string& input, const std::string& output,
+    bool binary, bool text, const reporter& r) {
+  auto grid  = load_grid(input, input_format(input, binary, text));
+  auto start = std::chrono::steady_clock::now();
+  note(r, "meshing " + dims_text(grid.dims) + " samples with OpenVDB volumeToMesh...");
+  auto mesh = grid_to_mesh(grid);
+  save_mesh(output, mesh);
+  note(r, "wrote " + output + ": " + std::to_string(mesh.positions.size()) +
+              " vertices, " + std::to_string(mesh.triangles.size()) +
+              " triangles in " + std::to_string(elapsed(start)) + " s");
+}
+
+}  // namespace
+
+int main(int argc, const char** argv) {
+  auto app = CLI::App{"ysdf: inspect, convert, bake and mesh SDF grids", "ysdf"};
+  app.require_subcommand(1);
+  auto r = reporter{};
+  r.terminal = isatty(fileno(stderr)) != 0;
+  app.add_flag("-q,--quiet", r.quiet, "No progress or notes on stderr");
+
+  auto in_file = std::string{}, out_file = std::string{};
+  auto binary = false, text = false;
+
+  auto info = app.add_subcommand("info", "Print a grid's header and statistics");
+  info->add_option("file", in_file, "Grid file")->required();
+  info->add_flag("--binary", binary, "Read a .sdf as skanti binary");
+  info->add_flag("--text", text, "Read a .sdf as SDFGen text");
+
+  auto convert = app.add_subcommand("convert", "Convert a grid between formats");
+  convert->add_option("input", in_file, "Grid to read")->required();
+  convert->add_option("output", out_file, "Grid to write (.sdf, .vdb, .vol)")->required();
+  convert->add_flag("--binary", binary, "Write .sdf as skanti binary");
+  auto in_binary = false;
+  convert->add_flag("--in-binary", in_binary, "Read a .sdf as skanti binary");
+
+  auto bake = bake_options{};
+  auto bake_cmd = app.add_subcommand("bake", "Bake analytic SDFs into a grid");
+  bake_cmd->add_option("output", bake.output, "Grid to write")->required();
+  bake_cmd->add_option("--voxel", bake.voxel, "Voxel size")->required();
+  bake_cmd->add_option("--shape", bake.shapes,
+      "Shape \"TYPE key=value ...\" (keys radius radius2 height thickness "
+      "size=x,y,z at=x,y,z; a leading '-' subtracts); repeat to combine");
+  bake_cmd->add_option("--scene", bake.scene, "Scene whose sdfunctions to bake");
+  bake_cmd->add_option("--blend", bake.blend, "Smooth blend radius for combining shapes");
+  bake_cmd->add_option("--pad", bake.pad, "Padding in voxels around the bounds");
+  bake_cmd->add_option("--bounds", bake.bounds, "World box xmin ymin zmin xmax ymax zmax")
+      ->expected(6);
+  bake_cmd->add_flag("--binary", bake.binary, "Write .sdf as skanti binary");
+
+  auto voxel = 0.0f, shell = 0.0f;
+  auto pad   = 3;
+  auto from_mesh = app.add_subcommand("from-mesh", "Make a grid from a triangle mesh (OpenVDB)");
+  from_mesh->add_option("mesh", in_file, "Mesh to read (.obj, .ply)")->required();
+  from_mesh->add_option("output", out_file, "Grid to write")->required();
+  from_mesh->add_option("--voxel", voxel, "Voxel size")->required();
+  from_mesh->add_option("--pad", pad, "Padding in voxels around the mesh (>= 1)");
+  from_mesh->add_option("--shell", shell,
+      "Half thickness of a shell around an open mesh (unsigned distance - shell)");
+  from_mesh->add_flag("--binary", binary, "Write .sdf as skanti binary");
+
+  auto to_mesh = app.add_subcommand("to-mesh", "Extract a triangle mesh from a grid (OpenVDB)");
+  to_mesh->add_option("grid", in_file, "Grid to read")->required();
+  to_mesh->add_option("output", out_file, "Mesh to write (.obj, .ply)")->required();
+  to_mesh->add_flag("--binary", binary, "Read a .sdf as skanti binary");
+  to_mesh->add_flag("--text", text, "Read a .sdf as SDFGen text");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "ysdf: %s (see ysdf --help)\n", e.what());
+    return 1;
+  }
+
+  try {
+    if (*info) {
+      run_info(in_file, binary, text);
+    } else if (*convert) {
+      auto grid = load_grid(in_file, input_format(in_file, in_binary, false));
+      save_and_report(r, out_file, grid, binary);
+    } else if (*bake_cmd) {
+      run_bake(bake, r);
+    } else if (*from_mesh) {
+      run_from_mesh(in_file, out_file, voxel, pad, shell, binary, r);
+    } else if (*to_mesh) {
+      run_to_mesh(in_file, out_file, binary, text, r);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ysdf: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
