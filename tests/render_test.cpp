@@ -17,15 +17,6 @@ std::string example_scene(const std::string& name) {
   return std::string{IMPLICIT_SOURCE_DIR} + "/examples/" + name;
 }
 
-image_data render(const scene_data& scene, trace_params params) {
-  auto accel  = make_accel(scene, params.accel, params.march);
-  auto lights = make_lights(scene, accel);
-  auto state  = make_state(scene, params);
-  for (auto s = 0; s < params.samples; s++)
-    trace_samples(state, scene, accel, lights, params);
-  return get_render(state);
-}
-
 // Fraction of pixels equal within `tolerance` on every channel.
 double equal_fraction(const image_data& a, const image_data& b, float tolerance) {
   auto equal = 0;
@@ -52,9 +43,9 @@ TEST_CASE("render: default tracer and reference mode agree on normals") {
   params.resolution = 120;
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
-  auto fast         = render(scene, params);
+  auto fast         = trace_image(scene, params);
   params.accel      = accel_type::none;
-  auto reference    = render(scene, params);
+  auto reference    = trace_image(scene, params);
   CHECK(coverage(fast) > 0.5);
   CHECK(coverage(fast) == doctest::Approx(coverage(reference)).epsilon(0.002));
   CHECK(equal_fraction(fast, reference, 1 / 255.0f) >= 0.995);
@@ -67,7 +58,7 @@ TEST_CASE("render: the example renders lit, with no NaN") {
   params.camera     = find_camera(scene, "");
   params.resolution = 96;
   params.samples    = 8;
-  auto image        = render(scene, params);
+  auto image        = trace_image(scene, params);
   auto mean         = 0.0;
   for (auto& p : image.pixels) {
     CHECK(isfinite(xyz(p)));
@@ -126,7 +117,7 @@ TEST_CASE("render: seed scenes, normals without holes on grids") {
     params.resolution = 360;
     params.samples    = 1;
     params.shader     = shader_type::implicit_normal;
-    auto image        = render(scene, params);
+    auto image        = trace_image(scene, params);
     CHECK(image.width == 360);
     CHECK(image.height == 150);
     CHECK(coverage(image) > 0.7);
@@ -144,7 +135,7 @@ TEST_CASE("render: seed grid scene path traced, no NaN, lit") {
   params.camera     = find_camera(scene, "");
   params.resolution = 120;
   params.samples    = 4;
-  auto image        = render(scene, params);
+  auto image        = trace_image(scene, params);
   auto mean         = 0.0;
   for (auto& p : image.pixels) {
     CHECK(isfinite(xyz(p)));

@@ -73,13 +73,8 @@ int main(int argc, char** argv) {
   auto params       = trace_params{};
   params.resolution = 480;
   params.samples    = samples;
-  auto accel        = make_accel(scene, params.accel, params.march);
-  auto lights       = make_lights(scene, accel);
-  auto state        = make_state(scene, params);
-  for (auto s = 0; s < params.samples; s++)
-    trace_samples(state, scene, accel, lights, params);
   try {
-    save_image(output, get_render(state));
+    save_image(output, trace_image(scene, params));
   } catch (const std::exception& error) {
     std::fprintf(stderr, "user_sdf: error: %s\n", error.what());
     return 1;

@@ -428,4 +428,13 @@ image_data get_render(const trace_state& state) {
   return image;
 }
 
+image_data trace_image(const scene_data& scene, const trace_params& params) {
+  auto accel  = make_accel(scene, params.accel, params.march);
+  auto lights = make_lights(scene, accel);
+  auto state  = make_state(scene, params);
+  for (auto sample = 0; sample < params.samples; sample++)
+    trace_samples(state, scene, accel, lights, params);
+  return get_render(state);
+}
+
 }  // namespace implicit

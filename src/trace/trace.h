@@ -110,6 +110,10 @@ inline bool trace_samples_until(trace_state& state, const scene_data& scene,
 // Average of the samples so far (linear RGBA, alpha = coverage).
 image_data get_render(const trace_state& state);
 
+// Render a whole image in one call: accel, lights, state, params.samples
+// passes (for tests, benchmarks and programs that need no progress).
+image_data trace_image(const scene_data& scene, const trace_params& params);
+
 // One sample of pixel (i, j); exposed for tests and the viewer's preview.
 vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const trace_params& params, int i, int j,

@@ -36,15 +36,6 @@ static vec3f covered_mean(const image_data& image, int& count) {
   return count ? sum / (float)count : sum;
 }
 
-static image_data render(const scene_data& scene, trace_params params) {
-  auto accel  = make_accel(scene, params.accel, params.march);
-  auto lights = make_lights(scene, accel);
-  auto state  = make_state(scene, params);
-  for (auto s = 0; s < params.samples; s++)
-    trace_samples(state, scene, accel, lights, params);
-  return get_render(state);
-}
-
 // White matte sphere in a uniform white environment.
 static scene_data furnace_scene() {
   auto scene    = scene_data{};
@@ -71,7 +62,7 @@ TEST_CASE("trace: furnace, white matte sphere converges to 1") {
   params.envhidden   = true;
   for (auto mis : {true, false}) {
     params.implicit_mis = mis;
-    auto image = render(scene, params);
+    auto image = trace_image(scene, params);
     auto count = 0;
     auto mean  = covered_mean(image, count);
     CHECK(count > 100);
@@ -112,9 +103,9 @@ TEST_CASE("trace: MIS on and off converge to the same mean") {
   params.clamp      = 1e6f;  // no clamping bias
   params.implicit_mis = true;
   auto count = 0;
-  auto with  = covered_mean(render(scene, params), count);
+  auto with  = covered_mean(trace_image(scene, params), count);
   params.implicit_mis = false;
-  auto without = covered_mean(render(scene, params), count);
+  auto without = covered_mean(trace_image(scene, params), count);
   CHECK(with.x > 0.05f);
   CHECK(without.x == doctest::Approx(with.x).epsilon(0.05));
 }
@@ -127,9 +118,9 @@ TEST_CASE("trace: same image whatever the thread count") {
   auto one = image_data{};
   {
     auto control = tbb::global_control(tbb::global_control::max_allowed_parallelism, 1);
-    one = render(scene, params);
+    one = trace_image(scene, params);
   }
-  auto two = render(scene, params);
+  auto two = trace_image(scene, params);
   REQUIRE(one.pixels.size() == two.pixels.size());
   auto same = true;
   for (size_t i = 0; i < one.pixels.size(); i++)
@@ -143,11 +134,11 @@ TEST_CASE("trace: scenes without lights or objects render without NaN") {
   auto params       = trace_params{};
   params.resolution = 16;
   params.samples    = 2;
-  auto image = render(scene, params);
+  auto image = trace_image(scene, params);
   for (auto& p : image.pixels) CHECK(isfinite(xyz(p)));
   // No objects at all.
   scene.sdfunctions.clear();
-  image = render(scene, params);
+  image = trace_image(scene, params);
   for (auto& p : image.pixels) CHECK(p.w == 0);
 }
 
@@ -157,7 +148,7 @@ TEST_CASE("trace: implicit_normal colours and alpha") {
   params.resolution = 33;
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
-  auto image  = render(scene, params);
+  auto image  = trace_image(scene, params);
   // Centre pixel sees the sphere's +z pole: colour (0.5, 0.5, 1).
   auto centre = pixel(image, 16, 16);
   CHECK(centre.x == doctest::Approx(0.5f).epsilon(0.02));
@@ -193,7 +184,7 @@ TEST_CASE("trace: furnace per material stays at or below 1") {
       params.bounces    = 16;
       params.envhidden  = true;
       params.mis        = mis;
-      auto image = render(scene, params);
+      auto image = trace_image(scene, params);
       auto count = 0;
       auto mean  = covered_mean(image, count);
       INFO("material ", material_type_names[(int)c.type], " mis ", (int)mis);
@@ -217,7 +208,7 @@ TEST_CASE("trace: one-sample, two-sample and no MIS converge to the same mean") 
     params.implicit_mis = mode != 2;
     params.mis          = mode == 1 ? mis_type::two_sample : mis_type::one_sample;
     auto count = 0;
-    means.push_back(covered_mean(render(scene, params), count).x);
+    means.push_back(covered_mean(trace_image(scene, params), count).x);
   }
   CHECK(means[0] > 0.05f);
   CHECK(means[1] == doctest::Approx(means[0]).epsilon(0.03));
@@ -234,10 +225,10 @@ TEST_CASE("trace: absorbing glass is darker than clear glass") {
   params.bounces    = 16;
   params.envhidden  = true;
   auto count = 0;
-  auto clear = covered_mean(render(scene, params), count);
+  auto clear = covered_mean(trace_image(scene, params), count);
   scene.materials[0].color   = {0.2f, 0.5f, 1.0f};
   scene.materials[0].trdepth = 0.5f;
-  auto tinted = covered_mean(render(scene, params), count);
+  auto tinted = covered_mean(trace_image(scene, params), count);
   CHECK(tinted.x < 0.5f * clear.x);
   CHECK(tinted.z > 0.95f * clear.z);  // no absorption in blue
   // A scattering medium with white albedo conserves energy.
@@ -246,7 +237,7 @@ TEST_CASE("trace: absorbing glass is darker than clear glass") {
   scene.materials[0].scattering = {1, 1, 1};
   scene.materials[0].trdepth    = 0.2f;
   params.bounces = 64;
-  auto fog = covered_mean(render(scene, params), count);
+  auto fog = covered_mean(trace_image(scene, params), count);
   CHECK(fog.y <= 1.02f);
 }
 
@@ -258,7 +249,7 @@ TEST_CASE("trace: debug shaders") {
   params.samples    = 1;
   auto centre = [&](shader_type shader) {
     params.shader = shader;
-    return pixel(render(scene, params), 16, 16);
+    return pixel(trace_image(scene, params), 16, 16);
   };
   auto position = centre(shader_type::position);
   CHECK(position.z == doctest::Approx(1.0f).epsilon(0.01));
@@ -271,7 +262,7 @@ TEST_CASE("trace: debug shaders") {
   CHECK(eyelight.z == doctest::Approx(0.75f).epsilon(0.02));
   // Steps: a heat map over every pixel, hit or not.
   params.shader = shader_type::steps;
-  auto image    = render(scene, params);
+  auto image    = trace_image(scene, params);
   for (auto& p : image.pixels) {
     CHECK(p.w == 1);
     CHECK(isfinite(xyz(p)));
