@@ -63,11 +63,12 @@ grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,
         "plane needs explicit bounds)");
   if (!is_invertible(local_from_world))
     throw io_error("bake: the frame is singular");
-  // Whole voxels covering the bounds; counts in double so that a tiny voxel
-  // size is refused instead of overflowing.
+  // Whole voxels covering the bounds (within 1e-4 voxel, so that an extent
+  // that is a multiple of the spacing up to rounding gets no extra sample);
+  // counts in double so that a tiny voxel size is refused, not overflowed.
   auto extent = size(bounds_world);
   auto count  = [&](float e) {
-    return (int64_t)std::min(std::ceil((double)e / spacing) + 1, 1e12);
+    return (int64_t)std::min(std::ceil((double)e / spacing - 1e-4) + 1, 1e12);
   };
   auto nx    = std::max(count(extent.x), int64_t{2});
   auto ny    = std::max(count(extent.y), int64_t{2});

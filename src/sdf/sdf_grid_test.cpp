@@ -4,9 +4,11 @@
 
 #include <doctest/doctest.h>
 
+#include <array>
 #include <cmath>
 
 #include "../math/random.h"
+#include "../util/error.h"
 
 using namespace implicit;
 
@@ -363,4 +365,46 @@ TEST_CASE("grid rejects bad dims and degenerate rays") {
   CHECK(stats.negative_samples == 32);
   CHECK(stats.surface_voxels == 9);
   CHECK(stats.negative_boundary == 28);
+}
+
+TEST_CASE("grid bake samples an SDF program") {
+  auto node    = sdf_node{};
+  node.type    = sdf_type::sphere;
+  node.radius  = 0.5f;
+  auto program = make_primitive_program(node);
+  // The sphere's local origin sits at world (1, 2, 3).
+  auto local_from_world = frame3f{
+      {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, -2, -3}};
+  auto bounds = bbox3f{{0.4f, 1.4f, 2.4f}, {1.6f, 2.6f, 3.6f}};
+  auto calls  = 0;
+  auto grid   = bake_grid(
+        program, local_from_world, bounds, 0.1f, [&](int done, int total) {
+        calls++;
+        CHECK(done <= total);
+      });
+  CHECK(grid.dims == vec3i{13, 13, 13});
+  CHECK(grid.origin == bounds.min);
+  CHECK(has_grid_accel(grid));
+  CHECK(calls > 0);
+  for (auto [i, j, k] : {std::array<int, 3>{0, 0, 0}, {6, 6, 6}, {3, 9, 12}}) {
+    auto p = bounds.min + vec3f{(float)i, (float)j, (float)k} * 0.1f;
+    CHECK(grid_value(grid, i, j, k) ==
+          doctest::Approx(length(p - vec3f{1, 2, 3}) - 0.5f).epsilon(1e-5));
+  }
+  // A frame that stretches by 2 halves the local distances back to world.
+  auto stretched = frame3f{{2, 0, 0}, {0, 2, 0}, {0, 0, 2}, {-2, -4, -6}};
+  auto half      = bake_grid(program, stretched, bounds, 0.1f);
+  CHECK(grid_value(half, 0, 0, 0) ==
+        doctest::Approx((2 * length(bounds.min - vec3f{1, 2, 3}) - 0.5f) / 2)
+            .epsilon(1e-5));
+  // Unbounded, empty or over-budget requests are refused.
+  auto plane = sdf_node{};
+  plane.type = sdf_type::plane;
+  CHECK_THROWS_AS(bake_grid(make_primitive_program(plane), identity_frame,
+                      sdf_bounds(make_primitive_program(plane)), 0.1f),
+      io_error);
+  CHECK_THROWS_AS(bake_grid(program, identity_frame, bounds, 0), io_error);
+  CHECK_THROWS_AS(bake_grid(program, identity_frame, bounds, 1e-7f), io_error);
+  CHECK_THROWS_AS(
+      bake_grid(sdf_program{}, identity_frame, bounds, 0.1f), io_error);
 }
