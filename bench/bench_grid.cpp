@@ -42,24 +42,28 @@ bool sphere_trace_grid(const grid_data& grid, const ray3f& ray, float epsilon,
 }
 
 struct method_stats {
-  double seconds = 0;
-  long   rays    = 0;
-  long   hits    = 0;
-  long   steps   = 0;
+  double seconds   = 0;
+  long   rays      = 0;
+  long   hits      = 0;
+  long   steps     = 0;
+  long   box_steps = 0;  // work of the rays that cross the grid's box
 };
 
 }  // namespace
 
 int main(int argc, const char** argv) {
-  auto filename   = std::string(IMPLICIT_SHARED_DIR) +
+  auto filename = std::string(IMPLICIT_SHARED_DIR) +
                   "/seed_scenes/tests/06_gridsdf/sdfs/bunny.sdf";
   auto resolution = 512;
   auto views      = 4;
   for (auto i = 1; i < argc; i++) {
     auto arg = std::string(argv[i]);
-    if (arg == "--resolution" && i + 1 < argc) resolution = std::stoi(argv[++i]);
-    else if (arg == "--views" && i + 1 < argc) views = std::stoi(argv[++i]);
-    else filename = arg;
+    if (arg == "--resolution" && i + 1 < argc)
+      resolution = std::stoi(argv[++i]);
+    else if (arg == "--views" && i + 1 < argc)
+      views = std::stoi(argv[++i]);
+    else
+      filename = arg;
   }
 
   // Load (best of 3) and memory.
@@ -81,8 +85,8 @@ int main(int argc, const char** argv) {
   auto radius = length(size(box)) * 1.6f;
   auto rays   = std::vector<ray3f>{};
   for (auto v = 0; v < views; v++) {
-    auto angle  = 2 * pif * (v + 0.125f) / views;
-    auto eye    = target + vec3f{std::cos(angle), 0.35f, std::sin(angle)} * radius;
+    auto angle = 2 * pif * (v + 0.125f) / views;
+    auto eye = target + vec3f{std::cos(angle), 0.35f, std::sin(angle)} * radius;
     auto camera = lookat_frame(eye, target, {0, 1, 0});
     auto half   = std::tan(radians(20.0f));
     for (auto j = 0; j < resolution; j++) {
@@ -95,37 +99,48 @@ int main(int argc, const char** argv) {
     }
   }
 
-  // Exact intersection.
-  auto exact     = method_stats{};
-  auto exact_t   = std::vector<float>(rays.size(), -1);
-  auto start     = bench_clock::now();
+  // Which rays cross the grid's box (work is also reported for those).
+  auto in_box   = std::vector<bool>(rays.size());
+  auto box_rays = 0L;
   for (auto r = size_t{0}; r < rays.size(); r++) {
-    auto t = 0.0f;
+    auto t0 = 0.0f, t1 = 0.0f;
+    in_box[r] = intersect_bbox(rays[r], box, t0, t1);
+    box_rays += in_box[r];
+  }
+
+  // Exact intersection.
+  auto exact   = method_stats{};
+  auto exact_t = std::vector<float>(rays.size(), -1);
+  auto start   = bench_clock::now();
+  for (auto r = size_t{0}; r < rays.size(); r++) {
+    auto t     = 0.0f;
     auto steps = 0;
     if (intersect_grid(grid, rays[r], t, steps)) {
       exact.hits++;
       exact_t[r] = t;
     }
     exact.steps += steps;
+    if (in_box[r]) exact.box_steps += steps;
   }
   exact.seconds = seconds_since(start);
   exact.rays    = (long)rays.size();
 
   // Sphere tracing, hit threshold 1e-3 voxel, at most 1000 steps.
-  auto sphere    = method_stats{};
-  auto mismatch  = 0L;
-  auto t_error   = 0.0;
-  auto epsilon   = 1e-3f * grid.spacing;
-  auto sphere_t  = std::vector<float>(rays.size(), -1);
-  start          = bench_clock::now();
+  auto sphere   = method_stats{};
+  auto mismatch = 0L;
+  auto t_error  = 0.0;
+  auto epsilon  = 1e-3f * grid.spacing;
+  auto sphere_t = std::vector<float>(rays.size(), -1);
+  start         = bench_clock::now();
   for (auto r = size_t{0}; r < rays.size(); r++) {
-    auto t = 0.0f;
+    auto t     = 0.0f;
     auto steps = 0;
     if (sphere_trace_grid(grid, rays[r], epsilon, 1000, t, steps)) {
       sphere.hits++;
       sphere_t[r] = t;
     }
     sphere.steps += steps;
+    if (in_box[r]) sphere.box_steps += steps;
   }
   sphere.seconds = seconds_since(start);
   sphere.rays    = (long)rays.size();
@@ -144,24 +159,29 @@ int main(int argc, const char** argv) {
       (long long)stats.surface_voxels);
   std::printf("load      %.1f ms (best of 3), accel build %.2f ms\n",
       load_time * 1e3, accel_time * 1e3);
-  std::printf("memory    %.2f MiB per grid (%.2f MiB samples + %.3f MiB bricks)\n",
+  std::printf(
+      "memory    %.2f MiB per grid (%.2f MiB samples + %.3f MiB bricks)\n",
       grid_memory(grid) / 1048576.0,
       grid.values.size() * sizeof(float) / 1048576.0,
       grid.brick_ranges.size() * sizeof(grid_brick_range) / 1048576.0);
-  std::printf("rays      %d views x %d^2 = %zu camera rays, 1 thread, grid space\n\n",
-      views, resolution, rays.size());
-  std::printf("%-26s %10s %8s %14s %10s\n", "method", "Mrays/s", "hits",
-      "work/ray", "ratio");
+  std::printf(
+      "rays      %d views x %d^2 = %zu camera rays (%ld cross the box), "
+      "1 thread, grid space\n\n",
+      views, resolution, rays.size(), box_rays);
+  std::printf("%-24s %8s %8s %12s %15s %7s\n", "method", "Mrays/s", "hits",
+      "work/ray", "work/box ray", "ratio");
   auto row = [&](const char* name, const method_stats& s, const char* unit) {
     auto rate = s.rays / s.seconds / 1e6;
-    std::printf("%-26s %10.3f %8ld %9.2f %-5s %9.2fx\n", name, rate, s.hits,
-        (double)s.steps / s.rays, unit,
+    std::printf("%-24s %8.3f %8ld %6.2f %-5s %9.2f %-5s %6.2fx\n", name, rate,
+        s.hits, (double)s.steps / s.rays, unit,
+        (double)s.box_steps / std::max(box_rays, 1L), unit,
         rate / (sphere.rays / sphere.seconds / 1e6));
   };
   row("sphere tracing (seed)", sphere, "evals");
   row("exact (bricks+voxels)", exact, "cells");
-  std::printf("\nhit/miss disagreements: %ld of %zu rays; mean |t_exact - "
-              "t_sphere| = %.4f voxels\n",
+  std::printf(
+      "\nhit/miss disagreements: %ld of %zu rays; mean |t_exact - "
+      "t_sphere| = %.4f voxels\n",
       mismatch, rays.size(), both ? t_error / both : 0.0);
   return 0;
 }

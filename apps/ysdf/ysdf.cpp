@@ -11,9 +11,9 @@
 // the first bytes unless --binary or --text says so, writing makes text
 // unless --binary). Errors print one line `ysdf: <message>`, exit code 1.
 
-#include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
@@ -131,7 +131,8 @@ void save_and_report(const reporter& r, const std::string& filename,
   save_grid(filename, grid, format);
   note(r, "wrote " + filename + ": " + grid_format_names[(int)format] + ", " +
               dims_text(grid.dims) + " samples, spacing " +
-              std::to_string(grid.spacing) + ", origin " + vec_text(grid.origin));
+              std::to_string(grid.spacing) + ", origin " +
+              vec_text(grid.origin));
 }
 
 // -----------------------------------------------------------------------------
@@ -154,7 +155,8 @@ void run_info(const std::string& filename, bool binary, bool text) {
       vec_text(grid.origin).c_str());
   std::printf("extent:   %s\n", vec_text(extent).c_str());
   std::printf("values:   %g .. %g\n", stats.min, stats.max);
-  std::printf("inside:   %lld samples < 0\n", (long long)stats.negative_samples);
+  std::printf(
+      "inside:   %lld samples < 0\n", (long long)stats.negative_samples);
   std::printf("surface:  %lld voxels with a zero crossing\n",
       (long long)stats.surface_voxels);
   std::printf("boundary: %lld samples < 0 on the box%s\n",
@@ -200,7 +202,8 @@ vec3f parse_vec3(const std::string& text, const std::string& spec) {
   auto in    = std::istringstream(text);
   while (std::getline(in, item, ',')) parts.push_back(item);
   if (parts.size() != 3)
-    throw io_error("--shape \"" + spec + "\": '" + text + "' needs 3 values x,y,z");
+    throw io_error(
+        "--shape \"" + spec + "\": '" + text + "' needs 3 values x,y,z");
   return {parse_float(parts[0], spec), parse_float(parts[1], spec),
       parse_float(parts[2], spec)};
 }
@@ -233,14 +236,21 @@ shape_spec parse_shape(const std::string& spec) {
   for (auto i = size_t{1}; i < words.size(); i++) {
     auto eq = words[i].find('=');
     if (eq == std::string::npos)
-      throw io_error("--shape \"" + spec + "\": '" + words[i] + "' is not key=value");
+      throw io_error(
+          "--shape \"" + spec + "\": '" + words[i] + "' is not key=value");
     auto key = words[i].substr(0, eq), value = words[i].substr(eq + 1);
-    if (key == "radius") shape.node.radius = parse_float(value, spec);
-    else if (key == "radius2") shape.node.radius2 = parse_float(value, spec);
-    else if (key == "height") shape.node.height = parse_float(value, spec);
-    else if (key == "thickness") shape.node.thickness = parse_float(value, spec);
-    else if (key == "size") shape.node.size = parse_vec3(value, spec);
-    else if (key == "at") shape.at = parse_vec3(value, spec);
+    if (key == "radius")
+      shape.node.radius = parse_float(value, spec);
+    else if (key == "radius2")
+      shape.node.radius2 = parse_float(value, spec);
+    else if (key == "height")
+      shape.node.height = parse_float(value, spec);
+    else if (key == "thickness")
+      shape.node.thickness = parse_float(value, spec);
+    else if (key == "size")
+      shape.node.size = parse_vec3(value, spec);
+    else if (key == "at")
+      shape.at = parse_vec3(value, spec);
     else
       throw io_error("--shape \"" + spec + "\": unknown key '" + key +
                      "'; keys: radius radius2 height thickness size at");
@@ -249,7 +259,8 @@ shape_spec parse_shape(const std::string& spec) {
 }
 
 // Union (smooth with blend > 0) of the shapes, minus the subtracted ones.
-sdf_program make_shapes_program(const std::vector<shape_spec>& shapes, float blend) {
+sdf_program make_shapes_program(
+    const std::vector<shape_spec>& shapes, float blend) {
   auto program = sdf_program{};
   auto root    = invalidid;
   for (auto pass : {false, true}) {
@@ -257,15 +268,18 @@ sdf_program make_shapes_program(const std::vector<shape_spec>& shapes, float ble
       if (shape.subtract != pass) continue;
       auto node = append_program(program, make_primitive_program(shape.node));
       if (shape.at != vec3f{0, 0, 0})
-        node = add_transform(program, node, frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -shape.at});
+        node = add_transform(
+            program, node, frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -shape.at});
       if (root == invalidid) {
         if (pass) throw io_error("--shape: subtracting from nothing");
         root = node;
         continue;
       }
-      auto op  = sdf_node{};
-      op.type  = pass ? (blend > 0 ? sdf_type::op_smooth_subtraction : sdf_type::op_subtraction)
-                      : (blend > 0 ? sdf_type::op_smooth_union : sdf_type::op_union);
+      auto op = sdf_node{};
+      op.type =
+          pass ? (blend > 0 ? sdf_type::op_smooth_subtraction
+                            : sdf_type::op_subtraction)
+               : (blend > 0 ? sdf_type::op_smooth_union : sdf_type::op_union);
       op.left  = root;
       op.right = node;
       op.blend = blend;
@@ -292,7 +306,8 @@ sdf_program make_scene_program(const std::string& filename) {
     }
     root = node;
   }
-  if (root == invalidid) throw_io_error(filename, "the scene has no sdfunctions");
+  if (root == invalidid)
+    throw_io_error(filename, "the scene has no sdfunctions");
   return program;
 }
 
@@ -347,7 +362,8 @@ void run_from_mesh(const std::string& input, const std::string& output,
               std::to_string(mesh.triangles.size()) + " triangles in " +
               std::to_string(elapsed(start)) + " s");
   start = std::chrono::steady_clock::now();
-  note(r, "converting with OpenVDB meshToVolume (voxel " + std::to_string(voxel) + ")...");
+  note(r, "converting with OpenVDB meshToVolume (voxel " +
+              std::to_string(voxel) + ")...");
   auto grid = grid_data{};
   try {
     grid = mesh_to_grid(mesh, voxel, pad, shell);
@@ -362,8 +378,11 @@ void run_to_mesh(const std::string& input, const std::string& output,
     bool binary, bool text, const reporter& r) {
   auto grid  = load_grid(input, input_format(input, binary, text));
   auto start = std::chrono::steady_clock::now();
-  note(r, "meshing " + dims_text(grid.dims) + " samples with OpenVDB volumeToMesh...");
+  note(r, "meshing " + dims_text(grid.dims) +
+              " samples with OpenVDB volumeToMesh...");
   auto mesh = grid_to_mesh(grid);
+  if (mesh.triangles.empty())
+    note(r, "the grid has no surface (no value changes sign): empty mesh");
   save_mesh(output, mesh);
   note(r, "wrote " + output + ": " + std::to_string(mesh.positions.size()) +
               " vertices, " + std::to_string(mesh.triangles.size()) +
@@ -373,55 +392,69 @@ void run_to_mesh(const std::string& input, const std::string& output,
 }  // namespace
 
 int main(int argc, const char** argv) {
-  auto app = CLI::App{"ysdf: inspect, convert, bake and mesh SDF grids", "ysdf"};
+  auto app = CLI::App{
+      "ysdf: inspect, convert, bake and mesh SDF grids", "ysdf"};
   app.require_subcommand(1);
-  auto r = reporter{};
+  auto r     = reporter{};
   r.terminal = isatty(fileno(stderr)) != 0;
   app.add_flag("-q,--quiet", r.quiet, "No progress or notes on stderr");
 
   auto in_file = std::string{}, out_file = std::string{};
   auto binary = false, text = false;
 
-  auto info = app.add_subcommand("info", "Print a grid's header and statistics");
+  auto info = app.add_subcommand(
+      "info", "Print a grid's header and statistics");
   info->add_option("file", in_file, "Grid file")->required();
   info->add_flag("--binary", binary, "Read a .sdf as skanti binary");
   info->add_flag("--text", text, "Read a .sdf as SDFGen text");
 
-  auto convert = app.add_subcommand("convert", "Convert a grid between formats");
+  auto convert = app.add_subcommand(
+      "convert", "Convert a grid between formats");
   convert->add_option("input", in_file, "Grid to read")->required();
-  convert->add_option("output", out_file, "Grid to write (.sdf, .vdb, .vol)")->required();
+  convert->add_option("output", out_file, "Grid to write (.sdf, .vdb, .vol)")
+      ->required();
   convert->add_flag("--binary", binary, "Write .sdf as skanti binary");
   auto in_binary = false;
   convert->add_flag("--in-binary", in_binary, "Read a .sdf as skanti binary");
 
-  auto bake = bake_options{};
+  auto bake     = bake_options{};
   auto bake_cmd = app.add_subcommand("bake", "Bake analytic SDFs into a grid");
   bake_cmd->add_option("output", bake.output, "Grid to write")->required();
   bake_cmd->add_option("--voxel", bake.voxel, "Voxel size")->required();
   bake_cmd->add_option("--shape", bake.shapes,
       "Shape \"TYPE key=value ...\" (keys radius radius2 height thickness "
       "size=x,y,z at=x,y,z; a leading '-' subtracts); repeat to combine");
-  bake_cmd->add_option("--scene", bake.scene, "Scene whose sdfunctions to bake");
-  bake_cmd->add_option("--blend", bake.blend, "Smooth blend radius for combining shapes");
-  bake_cmd->add_option("--pad", bake.pad, "Padding in voxels around the bounds");
-  bake_cmd->add_option("--bounds", bake.bounds, "World box xmin ymin zmin xmax ymax zmax")
+  bake_cmd->add_option(
+      "--scene", bake.scene, "Scene whose sdfunctions to bake");
+  bake_cmd->add_option(
+      "--blend", bake.blend, "Smooth blend radius for combining shapes");
+  bake_cmd->add_option(
+      "--pad", bake.pad, "Padding in voxels around the bounds");
+  bake_cmd
+      ->add_option(
+          "--bounds", bake.bounds, "World box xmin ymin zmin xmax ymax zmax")
       ->expected(6);
   bake_cmd->add_flag("--binary", bake.binary, "Write .sdf as skanti binary");
 
   auto voxel = 0.0f, shell = 0.0f;
-  auto pad   = 3;
-  auto from_mesh = app.add_subcommand("from-mesh", "Make a grid from a triangle mesh (OpenVDB)");
-  from_mesh->add_option("mesh", in_file, "Mesh to read (.obj, .ply)")->required();
+  auto pad       = 3;
+  auto from_mesh = app.add_subcommand(
+      "from-mesh", "Make a grid from a triangle mesh (OpenVDB)");
+  from_mesh->add_option("mesh", in_file, "Mesh to read (.obj, .ply)")
+      ->required();
   from_mesh->add_option("output", out_file, "Grid to write")->required();
   from_mesh->add_option("--voxel", voxel, "Voxel size")->required();
-  from_mesh->add_option("--pad", pad, "Padding in voxels around the mesh (>= 1)");
+  from_mesh->add_option(
+      "--pad", pad, "Padding in voxels around the mesh (>= 1)");
   from_mesh->add_option("--shell", shell,
       "Half thickness of a shell around an open mesh (unsigned distance - shell)");
   from_mesh->add_flag("--binary", binary, "Write .sdf as skanti binary");
 
-  auto to_mesh = app.add_subcommand("to-mesh", "Extract a triangle mesh from a grid (OpenVDB)");
+  auto to_mesh = app.add_subcommand(
+      "to-mesh", "Extract a triangle mesh from a grid (OpenVDB)");
   to_mesh->add_option("grid", in_file, "Grid to read")->required();
-  to_mesh->add_option("output", out_file, "Mesh to write (.obj, .ply)")->required();
+  to_mesh->add_option("output", out_file, "Mesh to write (.obj, .ply)")
+      ->required();
   to_mesh->add_flag("--binary", binary, "Read a .sdf as skanti binary");
   to_mesh->add_flag("--text", text, "Read a .sdf as SDFGen text");
 

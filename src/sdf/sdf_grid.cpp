@@ -57,8 +57,8 @@ void update_grid_accel(grid_data& grid) {
   for (auto bk = 0; bk < grid.bricks.z; bk++) {
     for (auto bj = 0; bj < grid.bricks.y; bj++) {
       for (auto bi = 0; bi < grid.bricks.x; bi++) {
-        auto lo    = vec3i{bi * grid_brick_size, bj * grid_brick_size,
-            bk * grid_brick_size};
+        auto lo = vec3i{
+            bi * grid_brick_size, bj * grid_brick_size, bk * grid_brick_size};
         auto hi    = vec3i{std::min(lo.x + grid_brick_size, dims.x - 1),
             std::min(lo.y + grid_brick_size, dims.y - 1),
             std::min(lo.z + grid_brick_size, dims.z - 1)};
@@ -79,8 +79,10 @@ void update_grid_accel(grid_data& grid) {
 }
 
 bool has_grid_accel(const grid_data& grid) {
+  // No check_grid_dims() here: it builds strings, and this runs in asserts
+  // of the tracer, which must not allocate.
   auto& dims = grid.dims;
-  if (!check_grid_dims(dims.x, dims.y, dims.z).empty()) return false;
+  if (dims.x < 2 || dims.y < 2 || dims.z < 2) return false;
   if ((int64_t)grid.values.size() != grid_samples(dims)) return false;
   return grid.bricks.x == brick_count(dims.x) &&
          grid.bricks.y == brick_count(dims.y) &&
@@ -200,7 +202,7 @@ static bool box_face_normal(
   auto best_sign = 1.0f;
   for (auto a = 0; a < 3; a++) {
     auto lo = at(p, a), hi = at(bmax, a) - at(p, a);
-    auto d  = std::min(lo, hi);  // negative outside the box
+    auto d = std::min(lo, hi);  // negative outside the box
     if (d < best) {
       best      = d;
       best_axis = a;
@@ -208,7 +210,7 @@ static bool box_face_normal(
     }
   }
   if (best > face_eps) return false;
-  normal              = {0, 0, 0};
+  normal                = {0, 0, 0};
   at(normal, best_axis) = best_sign;
   return true;
 }
@@ -293,17 +295,17 @@ static float eval_cubic_derivative(const voxel_cubic& c, float s) {
 // interpolant is k0 + k1 x + k2 y + k3 z + k4 xy + k5 yz + k6 xz + k7 xyz;
 // substituting the ray gives the coefficients (as in JCGT 2022).
 static voxel_cubic make_voxel_cubic(const float v[8], vec3f o, vec3f d) {
-  auto k0 = v[0];
-  auto k1 = v[1] - v[0];
-  auto k2 = v[2] - v[0];
-  auto k3 = v[4] - v[0];
-  auto k4 = v[3] - v[2] - k1;
-  auto k5 = v[6] - v[4] - k2;
-  auto k6 = v[5] - v[4] - k1;
-  auto k7 = (v[7] - v[6] - v[5] + v[4]) - k4;
-  auto c    = voxel_cubic{};
-  auto oxy  = o.x * o.y;
-  c.c0      = k0 + k1 * o.x + k2 * o.y + k3 * o.z + k4 * oxy + k5 * o.y * o.z +
+  auto k0  = v[0];
+  auto k1  = v[1] - v[0];
+  auto k2  = v[2] - v[0];
+  auto k3  = v[4] - v[0];
+  auto k4  = v[3] - v[2] - k1;
+  auto k5  = v[6] - v[4] - k2;
+  auto k6  = v[5] - v[4] - k1;
+  auto k7  = (v[7] - v[6] - v[5] + v[4]) - k4;
+  auto c   = voxel_cubic{};
+  auto oxy = o.x * o.y;
+  c.c0     = k0 + k1 * o.x + k2 * o.y + k3 * o.z + k4 * oxy + k5 * o.y * o.z +
          k6 * o.x * o.z + k7 * oxy * o.z;
   c.c1 = k1 * d.x + k2 * d.y + k3 * d.z + k4 * (o.x * d.y + o.y * d.x) +
          k5 * (o.y * d.z + o.z * d.y) + k6 * (o.x * d.z + o.z * d.x) +
@@ -328,8 +330,10 @@ static float refine_root(const voxel_cubic& c, float a, float ga, float b,
   for (auto iteration = 0; iteration < 40; iteration++) {
     auto g = eval_cubic(c, s);
     if (g == 0) return s;
-    if (crossed(g, inside)) b = s;
-    else a = s;
+    if (crossed(g, inside))
+      b = s;
+    else
+      a = s;
     auto next = s - g / eval_cubic_derivative(c, s);
     if (!(next > a && next < b)) next = 0.5f * (a + b);  // NaN-safe
     if (std::abs(next - s) <= tolerance) return next;
@@ -417,23 +421,26 @@ static int min_axis(float ex, float ey, float ez) {
 }
 
 // Walk the voxels of brick `brick` over [sa, sb]; true with the hit's s.
-static bool march_brick(const grid_data& grid, const grid_march& m,
-    vec3i brick, float sa, float sb, float& s_hit, int& steps) {
-  auto lo  = vec3i{brick.x * grid_brick_size, brick.y * grid_brick_size,
+static bool march_brick(const grid_data& grid, const grid_march& m, vec3i brick,
+    float sa, float sb, float& s_hit, int& steps) {
+  auto lo = vec3i{brick.x * grid_brick_size, brick.y * grid_brick_size,
       brick.z * grid_brick_size};
-  auto hi  = vec3i{std::min(lo.x + grid_brick_size, grid.dims.x - 1) - 1,
+  auto hi = vec3i{std::min(lo.x + grid_brick_size, grid.dims.x - 1) - 1,
       std::min(lo.y + grid_brick_size, grid.dims.y - 1) - 1,
       std::min(lo.z + grid_brick_size, grid.dims.z - 1) - 1};
-  auto ua  = m.u0 + m.du * sa;
-  auto c   = vec3i{clamp((int)std::floor(ua.x), lo.x, hi.x),
+  auto ua = m.u0 + m.du * sa;
+  auto c  = vec3i{clamp((int)std::floor(ua.x), lo.x, hi.x),
       clamp((int)std::floor(ua.y), lo.y, hi.y),
       clamp((int)std::floor(ua.z), lo.z, hi.z)};
-  auto s   = sa;
+  auto s  = sa;
   for (;;) {
     auto ex = cell_exit(m, c.x, 1, 0), ey = cell_exit(m, c.y, 1, 1),
-         ez = cell_exit(m, c.z, 1, 2);
+         ez     = cell_exit(m, c.z, 1, 2);
     auto axis   = min_axis(ex, ey, ez);
-    auto s_exit = std::max(s, std::min(axis == 0 ? ex : axis == 1 ? ey : ez, sb));
+    auto s_exit = std::max(s, std::min(axis == 0   ? ex
+                                       : axis == 1 ? ey
+                                                   : ez,
+                                  sb));
     steps++;
     float v[8];
     voxel_corners(grid, c, v);
@@ -468,22 +475,23 @@ static bool march_brick(const grid_data& grid, const grid_march& m,
 static bool march_grid(
     const grid_data& grid, const grid_march& m, float& s_hit, int& steps) {
   auto& nb = grid.bricks;
-  auto  b  = vec3i{
-      clamp((int)std::floor(m.u0.x / grid_brick_size), 0, nb.x - 1),
+  auto  b = vec3i{clamp((int)std::floor(m.u0.x / grid_brick_size), 0, nb.x - 1),
       clamp((int)std::floor(m.u0.y / grid_brick_size), 0, nb.y - 1),
       clamp((int)std::floor(m.u0.z / grid_brick_size), 0, nb.z - 1)};
-  auto s = 0.0f;
+  auto  s = 0.0f;
   for (;;) {
-    auto ex = cell_exit(m, b.x, grid_brick_size, 0),
-         ey = cell_exit(m, b.y, grid_brick_size, 1),
-         ez = cell_exit(m, b.z, grid_brick_size, 2);
-    auto axis   = min_axis(ex, ey, ez);
-    auto s_exit = std::max(
-        s, std::min(axis == 0 ? ex : axis == 1 ? ey : ez, m.length));
-    auto& range = grid.brick_ranges[(size_t)b.x +
-                                    (size_t)nb.x * ((size_t)b.y +
-                                                       (size_t)nb.y * b.z)];
-    auto  skip  = m.inside ? range.max < 0 : range.min >= 0;
+    auto ex      = cell_exit(m, b.x, grid_brick_size, 0),
+         ey      = cell_exit(m, b.y, grid_brick_size, 1),
+         ez      = cell_exit(m, b.z, grid_brick_size, 2);
+    auto  axis   = min_axis(ex, ey, ez);
+    auto  s_exit = std::max(s, std::min(axis == 0   ? ex
+                                        : axis == 1 ? ey
+                                                    : ez,
+                                   m.length));
+    auto& range =
+        grid.brick_ranges[(size_t)b.x +
+                          (size_t)nb.x * ((size_t)b.y + (size_t)nb.y * b.z)];
+    auto skip = m.inside ? range.max < 0 : range.min >= 0;
     if (skip) {
       steps++;
     } else if (march_brick(grid, m, b, s, s_exit, s_hit, steps)) {
@@ -521,7 +529,10 @@ bool intersect_grid(
   m.du       = ray.d * inv_h;
   m.length   = t1 - t0;
   for (auto a = 0; a < 3; a++) {
-    auto d          = at(m.du, a);
+    // A component whose inverse overflows never crosses a cell: treat it
+    // as 0, so that no exit time is inf * 0 = NaN.
+    auto& d = at(m.du, a);
+    if (!std::isfinite(1 / d)) d = 0;
     at(m.inv_du, a) = d != 0 ? 1 / d : 0;
     (&m.step.x)[a]  = d > 0 ? 1 : (d < 0 ? -1 : 0);
   }

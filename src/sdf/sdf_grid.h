@@ -64,8 +64,8 @@ struct grid_data {
 
 // Sample value at integer coordinates (no bounds check beyond asserts).
 inline float grid_value(const grid_data& grid, int i, int j, int k) {
-  return grid.values[(size_t)i +
-                     (size_t)grid.dims.x * ((size_t)j + (size_t)grid.dims.y * k)];
+  return grid.values[(size_t)i + (size_t)grid.dims.x *
+                                     ((size_t)j + (size_t)grid.dims.y * k)];
 }
 
 // Number of samples as a 64-bit count.

@@ -36,7 +36,7 @@ struct mapped_file {
 // A file written under a temporary name and renamed by commit(), so a
 // failed save leaves no partial file; move-only owner of the FILE*.
 struct output_file {
-  std::string filename = "";
+  std::string filename  = "";
   std::string temporary = "";
   FILE*       file      = nullptr;
 

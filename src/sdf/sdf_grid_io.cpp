@@ -28,7 +28,9 @@ namespace implicit {
 
 mapped_file::mapped_file(const std::string& filename) {
   auto fd = ::open(filename.c_str(), O_RDONLY);
-  if (fd < 0) throw_io_error(filename, "cannot open: " + std::string(std::strerror(errno)));
+  if (fd < 0)
+    throw_io_error(
+        filename, "cannot open: " + std::string(std::strerror(errno)));
   struct stat info;
   if (::fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) {
     ::close(fd);
@@ -38,10 +40,12 @@ mapped_file::mapped_file(const std::string& filename) {
     ::close(fd);
     throw_io_error(filename, "empty file");
   }
-  auto mapping = ::mmap(nullptr, (size_t)info.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
+  auto mapping = ::mmap(
+      nullptr, (size_t)info.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
   ::close(fd);
   if (mapping == MAP_FAILED)
-    throw_io_error(filename, "cannot read: " + std::string(std::strerror(errno)));
+    throw_io_error(
+        filename, "cannot read: " + std::string(std::strerror(errno)));
   data = (const char*)mapping;
   size = (size_t)info.st_size;
 }
@@ -50,11 +54,12 @@ mapped_file::~mapped_file() {
   if (data) ::munmap((void*)data, size);
 }
 
-output_file::output_file(const std::string& name)
-    : filename{name}, temporary{name + ".tmp"} {
+output_file::output_file(const std::string& name) :
+    filename{name}, temporary{name + ".tmp"} {
   file = std::fopen(temporary.c_str(), "wb");
   if (!file)
-    throw_io_error(filename, "cannot write: " + std::string(std::strerror(errno)));
+    throw_io_error(
+        filename, "cannot write: " + std::string(std::strerror(errno)));
 }
 
 output_file::~output_file() {
@@ -66,16 +71,18 @@ output_file::~output_file() {
 
 void write_bytes(output_file& out, const void* data, size_t size) {
   if (size != 0 && std::fwrite(data, 1, size, out.file) != size)
-    throw_io_error(out.filename, "write failed: " + std::string(std::strerror(errno)));
+    throw_io_error(
+        out.filename, "write failed: " + std::string(std::strerror(errno)));
 }
 
 void commit_file(output_file& out) {
-  auto ok = std::fflush(out.file) == 0;
-  ok      = std::fclose(out.file) == 0 && ok;
+  auto ok  = std::fflush(out.file) == 0;
+  ok       = std::fclose(out.file) == 0 && ok;
   out.file = nullptr;
   if (!ok || std::rename(out.temporary.c_str(), out.filename.c_str()) != 0) {
     std::remove(out.temporary.c_str());
-    throw_io_error(out.filename, "write failed: " + std::string(std::strerror(errno)));
+    throw_io_error(
+        out.filename, "write failed: " + std::string(std::strerror(errno)));
   }
 }
 
@@ -186,18 +193,18 @@ static T read_header_number(
 }
 
 static grid_data load_sdfgen(const std::string& filename) {
-  auto file = mapped_file{filename};
-  auto r    = text_reader{file.data, file.data + file.size, 1};
-  auto nx   = read_header_number<int64_t>(r, filename, "dims[0]");
-  auto ny   = read_header_number<int64_t>(r, filename, "dims[1]");
-  auto nz   = read_header_number<int64_t>(r, filename, "dims[2]");
+  auto file  = mapped_file{filename};
+  auto r     = text_reader{file.data, file.data + file.size, 1};
+  auto nx    = read_header_number<int64_t>(r, filename, "dims[0]");
+  auto ny    = read_header_number<int64_t>(r, filename, "dims[1]");
+  auto nz    = read_header_number<int64_t>(r, filename, "dims[2]");
   auto error = check_grid_dims(nx, ny, nz);
   if (!error.empty()) throw_at_line(filename, r.line, error);
-  auto grid   = grid_data{};
-  grid.dims   = {(int)nx, (int)ny, (int)nz};
-  grid.origin = {read_header_number<float>(r, filename, "origin.x"),
-      read_header_number<float>(r, filename, "origin.y"),
-      read_header_number<float>(r, filename, "origin.z")};
+  auto grid    = grid_data{};
+  grid.dims    = {(int)nx, (int)ny, (int)nz};
+  grid.origin  = {read_header_number<float>(r, filename, "origin.x"),
+       read_header_number<float>(r, filename, "origin.y"),
+       read_header_number<float>(r, filename, "origin.z")};
   grid.spacing = read_header_number<float>(r, filename, "dx");
   if (!(grid.spacing > 0))
     throw_at_line(filename, r.line,
@@ -209,9 +216,10 @@ static grid_data load_sdfgen(const std::string& filename) {
   auto remaining = (int64_t)(r.end - r.p);
   if (remaining < 2 * count - 1)
     throw_at_line(filename, r.line,
-        "too few values: dims " + std::to_string(nx) + "x" + std::to_string(ny) +
-            "x" + std::to_string(nz) + " need " + std::to_string(count) +
-            " values but only " + std::to_string(remaining) + " bytes follow");
+        "too few values: dims " + std::to_string(nx) + "x" +
+            std::to_string(ny) + "x" + std::to_string(nz) + " need " +
+            std::to_string(count) + " values but only " +
+            std::to_string(remaining) + " bytes follow");
   grid.values.resize((size_t)count);
   for (auto n = int64_t{0}; n < count; n++) {
     const char *begin = nullptr, *end = nullptr;
@@ -313,8 +321,8 @@ static grid_data load_skanti(const std::string& filename) {
     throw_io_error(filename,
         "size " + std::to_string(file.size) + " bytes, but dims " +
             std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" +
-            std::to_string(dims.z) + " need 80+4N = " +
-            std::to_string(skanti_header + 4 * count) +
+            std::to_string(dims.z) +
+            " need 80+4N = " + std::to_string(skanti_header + 4 * count) +
             " (sdf) or 80+8N = " + std::to_string(skanti_header + 8 * count) +
             " (sdf + pdf)");
 
@@ -323,7 +331,8 @@ static grid_data load_skanti(const std::string& filename) {
   for (auto i = 0; i < 16; i++) {
     m[i] = read_f32(file.data + 16 + 4 * i);
     if (!std::isfinite(m[i]))
-      throw_at_byte(filename, 16 + 4 * (size_t)i, "grid2world element is not finite");
+      throw_at_byte(
+          filename, 16 + 4 * (size_t)i, "grid2world element is not finite");
   }
   auto column_major = m[3] == 0 && m[7] == 0 && m[11] == 0 && m[15] == 1;
   auto row_major    = m[12] == 0 && m[13] == 0 && m[14] == 0 && m[15] == 1;
@@ -332,17 +341,21 @@ static grid_data load_skanti(const std::string& filename) {
         "grid2world is not an affine matrix in column- or row-major order "
         "(no 0 0 0 1 row)");
   // a(r, c): element at row r, column c, whichever order the file uses.
-  auto a = [&](int r, int c) { return column_major ? m[c * 4 + r] : m[r * 4 + c]; };
-  auto spacing = std::sqrt(a(0, 0) * a(0, 0) + a(1, 0) * a(1, 0) + a(2, 0) * a(2, 0));
-  if (!(spacing > 0)) throw_at_byte(filename, 16, "grid2world has a zero voxel size");
+  auto a = [&](int r, int c) {
+    return column_major ? m[c * 4 + r] : m[r * 4 + c];
+  };
+  auto spacing = std::sqrt(
+      a(0, 0) * a(0, 0) + a(1, 0) * a(1, 0) + a(2, 0) * a(2, 0));
+  if (!(spacing > 0))
+    throw_at_byte(filename, 16, "grid2world has a zero voxel size");
   for (auto r = 0; r < 3; r++) {
     for (auto c = 0; c < 3; c++) {
       auto expected = r == c ? spacing : 0.0f;
       if (std::abs(a(r, c) - expected) > 1e-4f * spacing)
         throw_at_byte(filename, 16,
             "grid2world is not a uniform positive scale (element (" +
-                std::to_string(r) + "," + std::to_string(c) + ") = " +
-                std::to_string(a(r, c)) +
+                std::to_string(r) + "," + std::to_string(c) +
+                ") = " + std::to_string(a(r, c)) +
                 "); only axis-aligned grids with cubic voxels are supported");
     }
   }
@@ -357,13 +370,13 @@ static grid_data load_skanti(const std::string& filename) {
 }
 
 static void save_skanti(const std::string& filename, const grid_data& grid) {
-  auto out = output_file{filename};
-  char header[skanti_header];
-  int32_t dims[3] = {grid.dims.x, grid.dims.y, grid.dims.z};
-  auto h = grid.spacing;
-  auto& o = grid.origin;
-  float res_and_matrix[17] = {h, h, 0, 0, 0, 0, h, 0, 0, 0, 0, h, 0, o.x, o.y,
-      o.z, 1};
+  auto    out = output_file{filename};
+  char    header[skanti_header];
+  int32_t dims[3]            = {grid.dims.x, grid.dims.y, grid.dims.z};
+  auto    h                  = grid.spacing;
+  auto&   o                  = grid.origin;
+  float   res_and_matrix[17] = {
+        h, h, 0, 0, 0, 0, h, 0, 0, 0, 0, h, 0, o.x, o.y, o.z, 1};
   std::memcpy(header, dims, 12);
   std::memcpy(header + 12, res_and_matrix, 68);
   write_bytes(out, header, sizeof(header));
@@ -386,8 +399,8 @@ static grid_data load_mitsuba(const std::string& filename) {
                                  " bytes, the header needs 48");
   auto d = file.data;
   if (d[0] != 'V' || d[1] != 'O' || d[2] != 'L')
-    throw_at_byte(filename, 0,
-        "magic '" + token_excerpt(d, d + 3) + "', expected 'VOL'");
+    throw_at_byte(
+        filename, 0, "magic '" + token_excerpt(d, d + 3) + "', expected 'VOL'");
   if (d[3] != 3)
     throw_at_byte(filename, 3,
         "version " + std::to_string((int)(unsigned char)d[3]) + ", expected 3");
@@ -415,7 +428,8 @@ static grid_data load_mitsuba(const std::string& filename) {
   for (auto a = 0; a < 3; a++) {
     spacing[a] = (box[a + 3] - box[a]) / (float)((&dims.x)[a] - 1);
     if (!(spacing[a] > 0))
-      throw_at_byte(filename, 24, "bbox is empty along axis " + std::to_string(a));
+      throw_at_byte(
+          filename, 24, "bbox is empty along axis " + std::to_string(a));
   }
   for (auto a = 1; a < 3; a++) {
     if (std::abs(spacing[a] - spacing[0]) > 1e-4f * spacing[0])
@@ -433,12 +447,13 @@ static grid_data load_mitsuba(const std::string& filename) {
 }
 
 static void save_mitsuba(const std::string& filename, const grid_data& grid) {
-  auto out = output_file{filename};
-  char header[vol_header] = {'V', 'O', 'L', 3};
-  int32_t ints[5] = {1, grid.dims.x, grid.dims.y, grid.dims.z, 1};
-  auto extent     = grid_bounds(grid).max;
-  auto& o         = grid.origin;
-  float box[6] = {o.x, o.y, o.z, o.x + extent.x, o.y + extent.y, o.z + extent.z};
+  auto    out                = output_file{filename};
+  char    header[vol_header] = {'V', 'O', 'L', 3};
+  int32_t ints[5]            = {1, grid.dims.x, grid.dims.y, grid.dims.z, 1};
+  auto    extent             = grid_bounds(grid).max;
+  auto&   o                  = grid.origin;
+  float   box[6]             = {
+                    o.x, o.y, o.z, o.x + extent.x, o.y + extent.y, o.z + extent.z};
   std::memcpy(header + 4, ints, 20);
   std::memcpy(header + 24, box, 24);
   write_bytes(out, header, sizeof(header));
@@ -467,7 +482,8 @@ void save_grid(
   auto error = check_grid_dims(grid.dims.x, grid.dims.y, grid.dims.z);
   if (!error.empty()) throw_io_error(filename, "cannot save: " + error);
   if ((int64_t)grid.values.size() != grid_samples(grid.dims))
-    throw_io_error(filename, "cannot save: the sample count does not match the dims");
+    throw_io_error(
+        filename, "cannot save: the sample count does not match the dims");
   switch (format) {
     case grid_format::sdfgen: save_sdfgen(filename, grid); break;
     case grid_format::skanti: save_skanti(filename, grid); break;

@@ -15,6 +15,14 @@
 
 using namespace implicit;
 
+// OpenVDB 10 leaks a node when a truncated file makes its topology read
+// throw (tree/RootNode.h readTopology: `new ChildT` before the child's read,
+// no owner). The loader still reports the error; this keeps the sanitizer
+// build's leak check about our code. LeakSanitizer calls this hook.
+extern "C" const char* __lsan_default_suppressions() {
+  return "leak:openvdb::v10_0::tree::RootNode*::readTopology\n";
+}
+
 namespace {
 
 // Scratch file path for this test binary.
@@ -48,7 +56,9 @@ void append(std::string& bytes, T value) {
 
 // An asymmetric field: each sample's value encodes its (i,j,k).
 constexpr int nx = 7, ny = 11, nz = 13;
-float field(int i, int j, int k) { return (float)(i + 10 * j + 200 * k) - 900.5f; }
+float         field(int i, int j, int k) {
+          return (float)(i + 10 * j + 200 * k) - 900.5f;
+}
 
 // Check the loaded grid is the field above.
 void check_field(const grid_data& grid) {
@@ -57,7 +67,8 @@ void check_field(const grid_data& grid) {
   auto wrong = 0;
   for (auto k = 0; k < nz; k++)
     for (auto j = 0; j < ny; j++)
-      for (auto i = 0; i < nx; i++) wrong += grid_value(grid, i, j, k) != field(i, j, k);
+      for (auto i = 0; i < nx; i++)
+        wrong += grid_value(grid, i, j, k) != field(i, j, k);
   CHECK(wrong == 0);
 }
 
@@ -81,7 +92,8 @@ std::string skanti_header(vec3i dims, float res, const std::vector<float>& m) {
   return bytes;
 }
 
-std::string vol_header(vec3i dims, int channels, const std::vector<float>& box) {
+std::string vol_header(
+    vec3i dims, int channels, const std::vector<float>& box) {
   auto bytes = std::string{"VOL\x03"};
   append(bytes, (int32_t)1);
   append(bytes, (int32_t)dims.x);
@@ -135,17 +147,20 @@ TEST_CASE("grid io loads every format with odd dims, x fastest") {
 
   // skanti, column major (translation at 12..14) with a pdf channel.
   auto h        = 0.125f;
-  auto colmajor = std::vector<float>{h, 0, 0, 0, 0, h, 0, 0, 0, 0, h, 0, 1, 2, 3, 1};
-  auto pdf      = std::vector<float>(values.size(), 7.0f);
-  write_file(temp_path("field_col.sdf"),
-      skanti_header({nx, ny, nz}, h, colmajor) + float_bytes(values) + float_bytes(pdf));
+  auto colmajor = std::vector<float>{
+      h, 0, 0, 0, 0, h, 0, 0, 0, 0, h, 0, 1, 2, 3, 1};
+  auto pdf = std::vector<float>(values.size(), 7.0f);
+  write_file(
+      temp_path("field_col.sdf"), skanti_header({nx, ny, nz}, h, colmajor) +
+                                      float_bytes(values) + float_bytes(pdf));
   auto col = load_grid(temp_path("field_col.sdf"), grid_format::skanti);
   check_field(col);
   CHECK(col.spacing == h);
   CHECK(col.origin == vec3f{1, 2, 3});
   // Row major (translation at 3, 7, 11), no pdf, res field wrong (1.0):
   // the matrix wins.
-  auto rowmajor = std::vector<float>{h, 0, 0, 1, 0, h, 0, 2, 0, 0, h, 3, 0, 0, 0, 1};
+  auto rowmajor = std::vector<float>{
+      h, 0, 0, 1, 0, h, 0, 2, 0, 0, h, 3, 0, 0, 0, 1};
   write_file(temp_path("field_row.sdf"),
       skanti_header({nx, ny, nz}, 1.0f, rowmajor) + float_bytes(values));
   auto row = load_grid(temp_path("field_row.sdf"), grid_format::skanti);
@@ -171,9 +186,10 @@ TEST_CASE("grid io loads every format with odd dims, x fastest") {
 }
 
 TEST_CASE("grid io round trips through every saver") {
-  auto grid    = make_grid({nx, ny, nz}, 0.037f, {-0.1f, 0.2f, 1e-3f}, 0);
-  grid.values  = field_values();
-  for (auto& v : grid.values) v = v / 3.7f + 1e-7f * v * v;  // not short decimals
+  auto grid   = make_grid({nx, ny, nz}, 0.037f, {-0.1f, 0.2f, 1e-3f}, 0);
+  grid.values = field_values();
+  for (auto& v : grid.values)
+    v = v / 3.7f + 1e-7f * v * v;  // not short decimals
   update_grid_accel(grid);
   for (auto format : {grid_format::sdfgen, grid_format::skanti,
            grid_format::mitsuba, grid_format::vdb}) {
@@ -194,11 +210,12 @@ TEST_CASE("grid io round trips through every saver") {
   CHECK(grid_format_from_uri("a.sdf", false) == grid_format::sdfgen);
   CHECK(grid_format_from_uri("noext", false) == grid_format::sdfgen);
   // Saving where it can not be written is an error, not a crash.
-  CHECK_THROWS_AS(save_grid("/nonexistent/dir/x.sdf", grid, grid_format::sdfgen), io_error);
+  CHECK_THROWS_AS(
+      save_grid("/nonexistent/dir/x.sdf", grid, grid_format::sdfgen), io_error);
 }
 
 TEST_CASE("grid io refuses bad SDFGen text") {
-  auto f = grid_format::sdfgen;
+  auto f     = grid_format::sdfgen;
   auto eight = std::string{"2 2 2\n0 0 0\n0.5\n"};
   check_refused("missing.sdf", "", f, "empty file");
   check_refused("empty.sdf", "\n", f, ":2: dims[0]: missing");
@@ -210,24 +227,32 @@ TEST_CASE("grid io refuses bad SDFGen text") {
   check_refused("overflow_dims.sdf", "99999999999999999999 2 2\n", f,
       ":1: dims[0]: '99999999999999999999' is not an integer");
   check_refused("float_dims.sdf", "2.5 2 2\n", f, "is not an integer");
-  check_refused("zero_dx.sdf", "2 2 2\n0 0 0\n0\n", f, ":3: dx 0.000000 must be positive");
+  check_refused("zero_dx.sdf", "2 2 2\n0 0 0\n0\n", f,
+      ":3: dx 0.000000 must be positive");
   check_refused("negative_dx.sdf", "2 2 2\n0 0 0\n-1\n", f, "must be positive");
   check_refused("nan_dx.sdf", "2 2 2\n0 0 0\nnan\n", f, ":3: dx is not finite");
-  check_refused("nan_origin.sdf", "2 2 2\n0 inf 0\n1\n", f, ":2: origin.y is not finite");
+  check_refused(
+      "nan_origin.sdf", "2 2 2\n0 inf 0\n1\n", f, ":2: origin.y is not finite");
   // Fewer bytes than the values could possibly need: refused up front.
   check_refused("huge_dims.sdf", "2000 2000 500\n0 0 0\n1\n1\n2\n", f,
       "too few values: dims 2000x2000x500 need 2000000000 values");
-  check_refused("too_few.sdf", eight + "1.0000\n2.0000\n3.0000\n4.0000\n5.0000\n6.0000\n7.0000\n",
-      f, ":11: too few values: expected 8, found 7");
+  check_refused("too_few.sdf",
+      eight + "1.0000\n2.0000\n3.0000\n4.0000\n5.0000\n6.0000\n7.0000\n", f,
+      ":11: too few values: expected 8, found 7");
   check_refused("too_many.sdf", eight + "1 2 3 4 5 6 7 8\n9\n", f,
       ":5: too many values: expected 8, found '9'");
   check_refused("junk.sdf", eight + "1\n2\nabc\n4 5 6 7 8\n", f,
       ":6: sample 2 (0,1,0): 'abc' is not a number");
-  check_refused("junk_suffix.sdf", eight + "1\n2\n3x\n4 5 6 7 8\n", f, "'3x' is not a number");
-  check_refused("nan.sdf", eight + "1\n2\n3\nnan\n5 6 7 8\n", f, ":7: sample 3 (1,1,0) is NaN");
-  check_refused("inf.sdf", eight + "1 2 3 4 5 6 7\n-inf\n", f, ":5: sample 7 (1,1,1) is infinite");
-  check_refused("out_of_range.sdf", eight + "1 2 3 4 5 6 7 1e50\n", f, "'1e50' is not a number");
-  check_refused("binary_junk.sdf", std::string("\x01\x02\x03\x00\xff", 5), f, "is not an integer");
+  check_refused("junk_suffix.sdf", eight + "1\n2\n3x\n4 5 6 7 8\n", f,
+      "'3x' is not a number");
+  check_refused("nan.sdf", eight + "1\n2\n3\nnan\n5 6 7 8\n", f,
+      ":7: sample 3 (1,1,0) is NaN");
+  check_refused("inf.sdf", eight + "1 2 3 4 5 6 7\n-inf\n", f,
+      ":5: sample 7 (1,1,1) is infinite");
+  check_refused("out_of_range.sdf", eight + "1 2 3 4 5 6 7 1e50\n", f,
+      "'1e50' is not a number");
+  check_refused("binary_junk.sdf", std::string("\x01\x02\x03\x00\xff", 5), f,
+      "is not an integer");
   // A directory is not a grid file.
   CHECK_THROWS_AS(load_grid(std::string(IMPLICIT_BINARY_DIR), f), io_error);
 }
@@ -237,62 +262,73 @@ TEST_CASE("grid io refuses bad binary files") {
   auto m  = std::vector<float>{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   auto v8 = float_bytes({1, 2, 3, 4, 5, 6, 7, 8});
   check_refused("empty.bin", "", s, "empty file");
-  check_refused("short.bin", std::string(10, '\0'), s, "truncated header: 10 bytes, the header needs 80");
-  check_refused("zero_dims.bin", skanti_header({0, 2, 2}, 1, m), s, "byte 0: dims 0x2x2");
-  check_refused("absurd_dims.bin", skanti_header({5000, 5000, 5000}, 1, m), s, "over budget");
+  check_refused("short.bin", std::string(10, '\0'), s,
+      "truncated header: 10 bytes, the header needs 80");
+  check_refused(
+      "zero_dims.bin", skanti_header({0, 2, 2}, 1, m), s, "byte 0: dims 0x2x2");
+  check_refused("absurd_dims.bin", skanti_header({5000, 5000, 5000}, 1, m), s,
+      "over budget");
   auto big_endian = std::string{};
   for (auto d : {0, 0, 0, 4, 0, 0, 0, 4, 0, 0, 0, 4}) big_endian += (char)d;
-  check_refused("big_endian.bin", big_endian + std::string(68, '\0'), s, "big-endian");
-  check_refused("truncated.bin", skanti_header({2, 2, 2}, 1, m) + v8.substr(0, 20), s,
+  check_refused(
+      "big_endian.bin", big_endian + std::string(68, '\0'), s, "big-endian");
+  check_refused("truncated.bin",
+      skanti_header({2, 2, 2}, 1, m) + v8.substr(0, 20), s,
       "size 100 bytes, but dims 2x2x2 need 80+4N = 112 (sdf) or 80+8N = 144");
-  check_refused("three_channels.bin", skanti_header({2, 2, 2}, 1, m) + v8 + v8 + v8, s,
-      "size 176 bytes");
+  check_refused("three_channels.bin",
+      skanti_header({2, 2, 2}, 1, m) + v8 + v8 + v8, s, "size 176 bytes");
   auto not_affine = m;
   not_affine[15]  = 0;
-  check_refused("not_affine.bin", skanti_header({2, 2, 2}, 1, not_affine) + v8, s,
-      "byte 16: grid2world is not an affine matrix");
+  check_refused("not_affine.bin", skanti_header({2, 2, 2}, 1, not_affine) + v8,
+      s, "byte 16: grid2world is not an affine matrix");
   auto uneven = m;
   uneven[5]   = 2;
   check_refused("uneven.bin", skanti_header({2, 2, 2}, 1, uneven) + v8, s,
       "not a uniform positive scale");
   auto nan_matrix = m;
   nan_matrix[13]  = NAN;
-  check_refused("nan_matrix.bin", skanti_header({2, 2, 2}, 1, nan_matrix) + v8, s,
-      "byte 68: grid2world element is not finite");
+  check_refused("nan_matrix.bin", skanti_header({2, 2, 2}, 1, nan_matrix) + v8,
+      s, "byte 68: grid2world element is not finite");
   check_refused("nan_sample.bin",
-      skanti_header({2, 2, 2}, 1, m) + float_bytes({1, 2, 3, 4, 5, NAN, 7, 8}), s,
-      "byte 100: sample 5 (1,0,1) is NaN");
+      skanti_header({2, 2, 2}, 1, m) + float_bytes({1, 2, 3, 4, 5, NAN, 7, 8}),
+      s, "byte 100: sample 5 (1,0,1) is NaN");
 
-  auto v   = grid_format::mitsuba;
-  auto box = std::vector<float>{0, 0, 0, 1, 1, 1};
+  auto v    = grid_format::mitsuba;
+  auto box  = std::vector<float>{0, 0, 0, 1, 1, 1};
   auto good = vol_header({2, 2, 2}, 1, box) + v8;
   check_refused("short.vol", "VOL", v, "truncated header: 3 bytes");
   auto bad_magic = good;
   bad_magic[1]   = 'X';
-  check_refused("magic.vol", bad_magic, v, "byte 0: magic 'VXL', expected 'VOL'");
+  check_refused(
+      "magic.vol", bad_magic, v, "byte 0: magic 'VXL', expected 'VOL'");
   auto bad_version = good;
   bad_version[3]   = 4;
   check_refused("version.vol", bad_version, v, "byte 3: version 4, expected 3");
   auto bad_encoding = good;
   bad_encoding[4]   = 2;
-  check_refused("encoding.vol", bad_encoding, v, "byte 4: encoding 2, expected 1");
+  check_refused(
+      "encoding.vol", bad_encoding, v, "byte 4: encoding 2, expected 1");
   check_refused("channels.vol", vol_header({2, 2, 2}, 3, box) + v8 + v8 + v8, v,
       "byte 20: channels 3, an SDF grid needs 1");
-  check_refused("dims.vol", vol_header({2, -2, 2}, 1, box) + v8, v, "byte 8: dims 2x-2x2");
+  check_refused("dims.vol", vol_header({2, -2, 2}, 1, box) + v8, v,
+      "byte 8: dims 2x-2x2");
   check_refused("truncated.vol", good.substr(0, good.size() - 1), v,
       "size 79 bytes, but dims need 48+4N = 80");
   check_refused("long.vol", good + "x", v, "size 81 bytes");
-  check_refused("uneven.vol", vol_header({2, 2, 2}, 1, {0, 0, 0, 1, 2, 1}) + v8, v,
-      "byte 24: bbox gives voxel sizes");
-  check_refused("flat.vol", vol_header({2, 2, 2}, 1, {0, 0, 0, 1, 0, 1}) + v8, v,
-      "bbox is empty along axis 1");
-  check_refused("nan.vol", vol_header({2, 2, 2}, 1, box) + float_bytes({1, 2, INFINITY, 4, 5, 6, 7, 8}), v,
-      "byte 56: sample 2 (0,1,0) is infinite");
+  check_refused("uneven.vol", vol_header({2, 2, 2}, 1, {0, 0, 0, 1, 2, 1}) + v8,
+      v, "byte 24: bbox gives voxel sizes");
+  check_refused("flat.vol", vol_header({2, 2, 2}, 1, {0, 0, 0, 1, 0, 1}) + v8,
+      v, "bbox is empty along axis 1");
+  check_refused("nan.vol",
+      vol_header({2, 2, 2}, 1, box) +
+          float_bytes({1, 2, INFINITY, 4, 5, 6, 7, 8}),
+      v, "byte 56: sample 2 (0,1,0) is infinite");
 }
 
 TEST_CASE("grid io refuses bad OpenVDB files") {
   auto f = grid_format::vdb;
-  check_refused("text.vdb", "this is not a vdb file\n", f, "not a readable OpenVDB file");
+  check_refused(
+      "text.vdb", "this is not a vdb file\n", f, "not a readable OpenVDB file");
   check_refused("empty.vdb", "", f, "empty file");
   // A valid file whose only grid is not a level set: patch the class
   // metadata ("level set" -> "staggered", same length) of a saved file.
@@ -303,31 +339,39 @@ TEST_CASE("grid io refuses bad OpenVDB files") {
   REQUIRE(where != std::string::npos);
   auto staggered = bytes;
   staggered.replace(where, 9, "staggered");
-  check_refused("staggered.vdb", staggered, f, "no float level set grid; found: sdf (float, staggered)");
+  check_refused("staggered.vdb", staggered, f,
+      "no float level set grid; found: sdf (float, staggered)");
   // Truncated at several places: an error, never a crash.
-  for (auto cut : {size_t{8}, bytes.size() / 3, bytes.size() / 2, bytes.size() - 10}) {
+  for (auto cut :
+      {size_t{8}, bytes.size() / 3, bytes.size() / 2, bytes.size() - 10}) {
     auto filename = temp_path("cut.vdb");
     write_file(filename, bytes.substr(0, cut));
     CAPTURE(cut);
     CAPTURE(bytes.size());
     CHECK_THROWS_AS(load_grid(filename, f), io_error);
   }
-  check_refused("cut.vdb", bytes.substr(0, bytes.size() - 10), f, "truncated or corrupt");
+  check_refused(
+      "cut.vdb", bytes.substr(0, bytes.size() - 10), f, "truncated or corrupt");
 }
 
 TEST_CASE("grid io skanti matrix order is detected on the shared samples") {
-  auto col = load_grid(shared_path("skanti_layout_exact_sphere_colmajor_sdf_pdf.sdf"),
+  auto col = load_grid(
+      shared_path("skanti_layout_exact_sphere_colmajor_sdf_pdf.sdf"),
       grid_format::skanti);
-  auto row = load_grid(shared_path("skanti_layout_exact_sphere_rowmajor_sdf_only.sdf"),
+  auto row = load_grid(
+      shared_path("skanti_layout_exact_sphere_rowmajor_sdf_only.sdf"),
       grid_format::skanti);
   for (auto grid : {&col, &row}) {
     CHECK(grid->dims == vec3i{51, 51, 51});
     CHECK(grid->spacing == doctest::Approx(0.025f));
     CHECK(distance(grid->origin, vec3f{-0.625f, -0.625f, -0.625f}) < 1e-6f);
     // Exact sphere values at grid2world * (i,j,k).
-    for (auto [i, j, k] : {std::array<int, 3>{0, 0, 0}, {25, 25, 25}, {5, 30, 47}}) {
-      auto p = grid->origin + vec3f{(float)i, (float)j, (float)k} * grid->spacing;
-      CHECK(grid_value(*grid, i, j, k) == doctest::Approx(length(p) - 0.5f).epsilon(1e-4));
+    for (auto [i, j, k] :
+        {std::array<int, 3>{0, 0, 0}, {25, 25, 25}, {5, 30, 47}}) {
+      auto p = grid->origin +
+               vec3f{(float)i, (float)j, (float)k} * grid->spacing;
+      CHECK(grid_value(*grid, i, j, k) ==
+            doctest::Approx(length(p) - 0.5f).epsilon(1e-4));
     }
   }
   CHECK(col.values == row.values);
@@ -342,25 +386,35 @@ TEST_CASE("grid io loads every shared sample or says why not") {
     bool        has_surface;
   };
   auto samples = std::vector<sample>{
-      {"sdfgen_icosphere_r0.5_dx0.05_pad2.sdf", grid_format::sdfgen, {24, 24, 24}, 0.05f, true},
-      {"sdfgen_icosphere_r0.5_dx0.05_pad1.sdf", grid_format::sdfgen, {22, 22, 22}, 0.05f, true},
-      {"sdfgen_torus_R0.6_r0.2_dx0.04_pad2.sdf", grid_format::sdfgen, {43, 44, 14}, 0.04f, true},
+      {"sdfgen_icosphere_r0.5_dx0.05_pad2.sdf", grid_format::sdfgen,
+          {24, 24, 24}, 0.05f, true},
+      {"sdfgen_icosphere_r0.5_dx0.05_pad1.sdf", grid_format::sdfgen,
+          {22, 22, 22}, 0.05f, true},
+      {"sdfgen_torus_R0.6_r0.2_dx0.04_pad2.sdf", grid_format::sdfgen,
+          {43, 44, 14}, 0.04f, true},
       {"gpis_Co_clean.sdf", grid_format::sdfgen, {25, 25, 25}, 0, true},
       {"gpis_Co_clean_dim_25.sdf", grid_format::sdfgen, {25, 25, 25}, 0, true},
-      {"skanti_layout_exact_sphere_colmajor_sdf_pdf.sdf", grid_format::skanti, {51, 51, 51}, 0.025f, true},
-      {"skanti_layout_exact_sphere_rowmajor_sdf_only.sdf", grid_format::skanti, {51, 51, 51}, 0.025f, true},
-      {"skanti_emulated_pipeline_sphere_colmajor_sdf_pdf.sdf", grid_format::skanti, {51, 51, 51}, 0.025f, true},
+      {"skanti_layout_exact_sphere_colmajor_sdf_pdf.sdf", grid_format::skanti,
+          {51, 51, 51}, 0.025f, true},
+      {"skanti_layout_exact_sphere_rowmajor_sdf_only.sdf", grid_format::skanti,
+          {51, 51, 51}, 0.025f, true},
+      {"skanti_emulated_pipeline_sphere_colmajor_sdf_pdf.sdf",
+          grid_format::skanti, {51, 51, 51}, 0.025f, true},
       // Scan2CAD: unsigned distance fields (every value > 0): they load,
       // and have no surface to render (ysdf info says so).
-      {"scan2cad_shapenet_chair_235c8ef2__0__.df", grid_format::skanti, {32, 32, 32}, 1 / 30.0f, false},
-      {"scan2cad_cad_heatmap_235c8ef2_4_0.vox2", grid_format::skanti, {32, 32, 32}, 1 / 30.0f, false},
-      {"mitsuba_sdfgrid_sphere_48.vol", grid_format::mitsuba, {48, 48, 48}, 1 / 47.0f, true},
+      {"scan2cad_shapenet_chair_235c8ef2__0__.df", grid_format::skanti,
+          {32, 32, 32}, 1 / 30.0f, false},
+      {"scan2cad_cad_heatmap_235c8ef2_4_0.vox2", grid_format::skanti,
+          {32, 32, 32}, 1 / 30.0f, false},
+      {"mitsuba_sdfgrid_sphere_48.vol", grid_format::mitsuba, {48, 48, 48},
+          1 / 47.0f, true},
   };
   for (auto& s : samples) {
     CAPTURE(s.name);
     auto grid = load_grid(shared_path(s.name), s.format);
     CHECK(grid.dims == s.dims);
-    if (s.spacing > 0) CHECK(grid.spacing == doctest::Approx(s.spacing).epsilon(1e-5));
+    if (s.spacing > 0)
+      CHECK(grid.spacing == doctest::Approx(s.spacing).epsilon(1e-5));
     auto stats = compute_grid_stats(grid);
     CHECK((stats.surface_voxels > 0) == s.has_surface);
     CHECK((stats.min > 0) == !s.has_surface);
@@ -381,13 +435,13 @@ TEST_CASE("grid io loads every shared sample or says why not") {
 TEST_CASE("grid io the clipped SDFGen sphere is closed by the box") {
   // pad1: the + faces sit exactly on the sphere (values ~6e-8 there), so
   // rays leave through the grid boundary; none may escape the solid.
-  auto grid = load_grid(shared_path("sdfgen_icosphere_r0.5_dx0.05_pad1.sdf"),
-      grid_format::sdfgen);
+  auto grid   = load_grid(shared_path("sdfgen_icosphere_r0.5_dx0.05_pad1.sdf"),
+        grid_format::sdfgen);
   auto center = -grid.origin;  // the sphere's centre in grid space
   auto box    = grid_bounds(grid);
   CHECK(box.max.x == doctest::Approx(1.05f));
   auto escaped = 0, off = 0;
-  auto count   = 0;
+  auto count = 0;
   for (auto a = 0; a < 40; a++) {
     for (auto b = 0; b < 40; b++) {
       auto theta = (a + 0.5f) / 40 * pif, phi = b / 40.0f * 2 * pif;

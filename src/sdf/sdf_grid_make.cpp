@@ -63,25 +63,26 @@ grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,
         "plane needs explicit bounds)");
   if (!is_invertible(local_from_world))
     throw io_error("bake: the frame is singular");
-  // Whole voxels covering the bounds; counts in double so that a tiny voxel
-  // size is refused instead of overflowing.
+  // Whole voxels covering the bounds (within 1e-4 voxel, so that an extent
+  // that is a multiple of the spacing up to rounding gets no extra sample);
+  // counts in double so that a tiny voxel size is refused, not overflowed.
   auto extent = size(bounds_world);
   auto count  = [&](float e) {
-    return (int64_t)std::min(std::ceil((double)e / spacing) + 1, 1e12);
+    return (int64_t)std::min(std::ceil((double)e / spacing - 1e-4) + 1, 1e12);
   };
-  auto nx = std::max(count(extent.x), int64_t{2});
-  auto ny = std::max(count(extent.y), int64_t{2});
-  auto nz = std::max(count(extent.z), int64_t{2});
+  auto nx    = std::max(count(extent.x), int64_t{2});
+  auto ny    = std::max(count(extent.y), int64_t{2});
+  auto nz    = std::max(count(extent.z), int64_t{2});
   auto error = check_grid_dims(nx, ny, nz);
   if (!error.empty()) throw io_error("bake: " + error);
   auto grid = make_grid(
       {(int)nx, (int)ny, (int)nz}, spacing, bounds_world.min, 0);
 
   // A map that stretches by s scales distances by s: divide it out.
-  auto scale = 1 / max_stretch(local_from_world);
-  auto bad   = std::atomic<bool>{false};
-  auto& n    = grid.dims;
-  auto chunk = std::max(1, n.z / 64);
+  auto  scale = 1 / max_stretch(local_from_world);
+  auto  bad   = std::atomic<bool>{false};
+  auto& n     = grid.dims;
+  auto  chunk = std::max(1, n.z / 64);
   for (auto k0 = 0; k0 < n.z; k0 += chunk) {
     auto k1 = std::min(k0 + chunk, n.z);
     tbb::parallel_for(tbb::blocked_range<int>(k0 * n.y, k1 * n.y),
@@ -99,7 +100,8 @@ grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,
             }
           }
         });
-    if (bad) throw io_error("bake: the SDF is not finite somewhere in the bounds");
+    if (bad)
+      throw io_error("bake: the SDF is not finite somewhere in the bounds");
     if (progress) progress(k1, n.z);
   }
   update_grid_accel(grid);

@@ -4,9 +4,11 @@
 
 #include <doctest/doctest.h>
 
+#include <array>
 #include <cmath>
 
 #include "../math/random.h"
+#include "../util/error.h"
 
 using namespace implicit;
 
@@ -25,8 +27,8 @@ grid_data sample_grid(vec3i dims, float spacing, F&& f) {
   for (auto k = 0; k < dims.z; k++)
     for (auto j = 0; j < dims.y; j++)
       for (auto i = 0; i < dims.x; i++)
-        grid.values[i + dims.x * (j + (size_t)dims.y * k)] =
-            f(vec3f{(float)i, (float)j, (float)k} * spacing);
+        grid.values[i + dims.x * (j + (size_t)dims.y * k)] = f(
+            vec3f{(float)i, (float)j, (float)k} * spacing);
   update_grid_accel(grid);
   return grid;
 }
@@ -35,14 +37,14 @@ grid_data sample_grid(vec3i dims, float spacing, F&& f) {
 grid_data sphere_grid(int n, float spacing, float radius, vec3f& center) {
   center = vec3f{1, 1, 1} * ((n - 1) * spacing * 0.5f);
   auto c = center;
-  return sample_grid({n, n, n}, spacing,
-      [&](vec3f p) { return length(p - c) - radius; });
+  return sample_grid(
+      {n, n, n}, spacing, [&](vec3f p) { return length(p - c) - radius; });
 }
 
 // First t where the interpolant changes sign, by dense sampling along the
 // ray (a reference that knows nothing of voxels or bricks).
-bool reference_hit(const grid_data& grid, const ray3f& ray, float step,
-    float& t_hit) {
+bool reference_hit(
+    const grid_data& grid, const ray3f& ray, float step, float& t_hit) {
   auto in_solid = eval_grid(grid, ray_point(ray, ray.tmin)) < 0;
   for (auto t = ray.tmin + step; t <= ray.tmax; t += step) {
     auto p = ray_point(ray, t);
@@ -60,15 +62,16 @@ bool reference_hit(const grid_data& grid, const ray3f& ray, float step,
 TEST_CASE("grid interpolant is exact at the nodes") {
   // Spacing 0.25 makes i*h/h exact, so the nodes hit voxel corners exactly.
   auto rng  = make_rng(7);
-  auto grid = sample_grid({7, 11, 13}, 0.25f,
-      [&](vec3f) { return rand1f(rng) * 2 - 1; });
+  auto grid = sample_grid(
+      {7, 11, 13}, 0.25f, [&](vec3f) { return rand1f(rng) * 2 - 1; });
   for (auto k = 0; k < 13; k++)
     for (auto j = 0; j < 11; j++)
       for (auto i = 0; i < 7; i++)
         CHECK(eval_grid(grid, vec3f{(float)i, (float)j, (float)k} * 0.25f) ==
               grid_value(grid, i, j, k));
   // Any spacing: within rounding.
-  auto grid2 = sample_grid({7, 11, 13}, 0.1f, [&](vec3f p) { return p.x - 2 * p.y + p.z * p.z; });
+  auto grid2 = sample_grid(
+      {7, 11, 13}, 0.1f, [&](vec3f p) { return p.x - 2 * p.y + p.z * p.z; });
   for (auto k = 0; k < 13; k += 3)
     for (auto j = 0; j < 11; j += 2)
       for (auto i = 0; i < 7; i++)
@@ -78,15 +81,16 @@ TEST_CASE("grid interpolant is exact at the nodes") {
   CHECK(eval_grid(grid2, {0.33f, 0.47f, 0.2f}) ==
         doctest::Approx(0.33 - 2 * 0.47 + 0.2 * 0.2).epsilon(1e-2));
   CHECK(eval_grid(grid2, {0.35f, 0.45f, 0.3f}) ==
-        doctest::Approx(0.35 - 2 * 0.45 + 0.3 * 0.3 + 0.05 * 0.05 * 0).epsilon(0.02));
+        doctest::Approx(0.35 - 2 * 0.45 + 0.3 * 0.3 + 0.05 * 0.05 * 0)
+            .epsilon(0.02));
 }
 
 TEST_CASE("grid eval outside the box is the documented lower bound") {
   auto center = vec3f{};
   auto grid   = sphere_grid(21, 0.1f, 0.6f, center);  // box [0,2]^3
   // Straight out of the +x face: sqrt(d^2 + f(q)^2).
-  auto q   = vec3f{2, 1.3f, 0.7f};
-  auto fq  = eval_grid(grid, q);
+  auto q  = vec3f{2, 1.3f, 0.7f};
+  auto fq = eval_grid(grid, q);
   REQUIRE(fq > 0);
   CHECK(eval_grid(grid, q + vec3f{0.5f, 0, 0}) ==
         doctest::Approx(std::sqrt(0.25f + fq * fq)).epsilon(1e-5));
@@ -120,9 +124,9 @@ TEST_CASE("grid ray hits lie on the interpolant's root") {
     auto target = center + (frame.x * uv.x + frame.y * uv.y) * 0.58f;
     auto radius = length(uv) * 0.58f;
     auto ray    = ray3f{eye, (target - eye) * 0.37f, 0, flt_max};
-    auto t = 0.0f;
-    auto steps = 0;
-    auto hit   = intersect_grid(grid, ray, t, steps);
+    auto t      = 0.0f;
+    auto steps  = 0;
+    auto hit    = intersect_grid(grid, ray, t, steps);
     CHECK(steps > 0);
     if (radius < 0.45f) {
       REQUIRE(hit);
@@ -132,7 +136,7 @@ TEST_CASE("grid ray hits lie on the interpolant's root") {
       // Close to the analytic sphere (the interpolant's error is O(h^2)).
       CHECK(std::abs(length(p - center) - 0.5f) < 0.01f);
       // First root: no sign change before it.
-      auto t_ref = 0.0f;
+      auto t_ref  = 0.0f;
       auto before = ray;
       before.tmax = t * 0.999f;
       CHECK(!reference_hit(grid, before, 1e-3f, t_ref));
@@ -165,15 +169,15 @@ TEST_CASE("grid exact intersection agrees with a dense reference march") {
     return std::sin(3.1f * p.x) * std::cos(2.3f * p.y) +
            0.7f * std::sin(4.7f * p.z + p.x) - 0.35f;
   });
-  auto rng    = make_rng(5);
-  auto box    = grid_bounds(grid);
-  auto agreed = 0;
+  auto rng     = make_rng(5);
+  auto box     = grid_bounds(grid);
+  auto agreed  = 0;
   for (auto n = 0; n < 200; n++) {
     // From anywhere around the box (or inside it) toward a point in it.
     auto o      = center(box) + (rand3f(rng) - 0.5f) * size(box) * 2.2f;
     auto target = box.min + rand3f(rng) * size(box);
     auto d      = normalize(target - o) * (0.5f + rand1f(rng));
-    auto ray = ray3f{o, d, 0, 20};
+    auto ray    = ray3f{o, d, 0, 20};
     auto t = 0.0f, t_ref = 0.0f;
     auto steps   = 0;
     auto hit     = intersect_grid(grid, ray, t, steps);
@@ -192,7 +196,8 @@ TEST_CASE("grid exact intersection agrees with a dense reference march") {
       // No sampled sign change well before the reported hit.
       auto before = ray;
       before.tmax = t - 2 * step;
-      if (before.tmax > before.tmin) CHECK(!reference_hit(grid, before, step, t_ref));
+      if (before.tmax > before.tmin)
+        CHECK(!reference_hit(grid, before, step, t_ref));
     }
   }
   CHECK(agreed > 150);
@@ -201,9 +206,10 @@ TEST_CASE("grid exact intersection agrees with a dense reference march") {
     auto axis = n % 3;
     auto sign = (n / 3) % 2 ? 1.0f : -1.0f;
     auto o    = vec3f{(float)rand1i(rng, 37), (float)rand1i(rng, 29),
-        (float)rand1i(rng, 41)} * spacing;
+                 (float)rand1i(rng, 41)} *
+             spacing;
     if (n % 5 == 0) o = vec3f{8, 16, 24} * spacing;
-    auto d    = vec3f{0, 0, 0};
+    auto d      = vec3f{0, 0, 0};
     at(d, axis) = sign;
     at(o, axis) = sign > 0 ? -1.0f : at(box.max, axis) + 1;
     auto ray    = ray3f{o, d, 0, 20};
@@ -220,22 +226,19 @@ TEST_CASE("grid exact intersection agrees with a dense reference march") {
 TEST_CASE("grid finds a dip inside a single voxel") {
   // f = 0.2 - x*y in one voxel: positive at the ray's ends, negative in the
   // middle of the segment x = s, y = 1 - s. Roots of s^2 - s + 0.2.
-  auto grid = sample_grid({2, 2, 2}, 1.0f, [](vec3f p) {
-    return 0.2f - p.x * p.y;
-  });
+  auto grid = sample_grid(
+      {2, 2, 2}, 1.0f, [](vec3f p) { return 0.2f - p.x * p.y; });
   auto ray   = ray3f{{0, 1, 0.5f}, {1, -1, 0}, 0, flt_max};
   auto t     = 0.0f;
   auto steps = 0;
   REQUIRE(intersect_grid(grid, ray, t, steps));
   CHECK(t == doctest::Approx((1 - std::sqrt(0.2)) / 2).epsilon(1e-5));
   // A barely negative dip (min -1e-4) is still found.
-  auto shallow = sample_grid({2, 2, 2}, 1.0f, [](vec3f p) {
-    return 0.2501f - p.x * p.y;
-  });
+  auto shallow = sample_grid(
+      {2, 2, 2}, 1.0f, [](vec3f p) { return 0.2501f - p.x * p.y; });
   REQUIRE(!intersect_grid(shallow, ray, t, steps));
-  auto deeper = sample_grid({2, 2, 2}, 1.0f, [](vec3f p) {
-    return 0.2499f - p.x * p.y;
-  });
+  auto deeper = sample_grid(
+      {2, 2, 2}, 1.0f, [](vec3f p) { return 0.2499f - p.x * p.y; });
   REQUIRE(intersect_grid(deeper, ray, t, steps));
   CHECK(t == doctest::Approx(0.49).epsilon(2e-3));
 }
@@ -243,13 +246,13 @@ TEST_CASE("grid finds a dip inside a single voxel") {
 TEST_CASE("grid ray grazing a thin plate") {
   // Plate: one row of samples at y = 1 is -0.05, the rest +1: the solid is
   // a slab |y - 1| < 0.05/1.05 voxels thick, far thinner than a voxel.
-  auto h      = 0.5f;
-  auto grid   = sample_grid({33, 5, 9}, h, [&](vec3f p) {
+  auto h     = 0.5f;
+  auto grid  = sample_grid({33, 5, 9}, h, [&](vec3f p) {
     return std::abs(p.y - 2 * h) < 0.1f * h ? -0.05f * h : h;
   });
-  auto half   = 0.05f / 1.05f * h;
-  auto t      = 0.0f;
-  auto steps  = 0;
+  auto half  = 0.05f / 1.05f * h;
+  auto t     = 0.0f;
+  auto steps = 0;
   // Shallow descent: crosses the plate's top over many voxels.
   auto slope = 0.02f;
   auto ray   = ray3f{{-1, 2 * h + 0.3f, 2}, {1, -slope, 0}, 0, flt_max};
@@ -290,14 +293,15 @@ TEST_CASE("grid ray starting inside the solid") {
   auto clipped = sample_grid({17, 25, 25}, 0.05f, [&](vec3f p) {
     return length(p - vec3f{0.5f, 0.6f, 0.6f}) - 0.5f;
   });  // box x in [0, 0.8]
-  auto ray   = ray3f{{0.5f, 0.6f, 0.6f}, {1, 0, 0}, 0, flt_max};
-  auto t     = 0.0f;
-  auto steps = 0;
+  auto ray     = ray3f{{0.5f, 0.6f, 0.6f}, {1, 0, 0}, 0, flt_max};
+  auto t       = 0.0f;
+  auto steps   = 0;
   REQUIRE(intersect_grid(clipped, ray, t, steps));
   CHECK(t == doctest::Approx(0.3f));
   auto n = eval_grid_gradient(clipped, ray_point(ray, t));
   CHECK(n.x == doctest::Approx(1));
-  CHECK(eval_grid_gradient_smooth(clipped, ray_point(ray, t)).x == doctest::Approx(1));
+  CHECK(eval_grid_gradient_smooth(clipped, ray_point(ray, t)).x ==
+        doctest::Approx(1));
   // From outside, through the cut face: a face hit.
   ray = ray3f{{2, 0.6f, 0.65f}, {-1, 0, 0}, 0, flt_max};
   REQUIRE(intersect_grid(clipped, ray, t, steps));
@@ -305,9 +309,9 @@ TEST_CASE("grid ray starting inside the solid") {
 }
 
 TEST_CASE("grid normals: analytic in the voxel, smooth across voxels") {
-  auto center = vec3f{};
-  auto grid   = sphere_grid(25, 0.05f, 0.5f, center);
-  auto rng    = make_rng(9);
+  auto center     = vec3f{};
+  auto grid       = sphere_grid(25, 0.05f, 0.5f, center);
+  auto rng        = make_rng(9);
   auto jump_plain = 0.0f, jump_smooth = 0.0f;
   for (auto n = 0; n < 200; n++) {
     auto dir = normalize(rand3f(rng) - 0.5f);
@@ -316,12 +320,13 @@ TEST_CASE("grid normals: analytic in the voxel, smooth across voxels") {
     CHECK(dot(eval_grid_gradient(grid, p), dir) > 0.99f);
     CHECK(dot(eval_grid_gradient_smooth(grid, p), dir) > 0.995f);
     // Across the x voxel face nearest to p.
-    auto x  = std::round(p.x / 0.05f) * 0.05f;
-    auto a  = vec3f{x - 1e-4f, p.y, p.z}, b = vec3f{x + 1e-4f, p.y, p.z};
+    auto x = std::round(p.x / 0.05f) * 0.05f;
+    auto a = vec3f{x - 1e-4f, p.y, p.z}, b = vec3f{x + 1e-4f, p.y, p.z};
     jump_plain  = std::max(jump_plain,
          length(eval_grid_gradient(grid, a) - eval_grid_gradient(grid, b)));
-    jump_smooth = std::max(jump_smooth, length(eval_grid_gradient_smooth(grid, a) -
-                                            eval_grid_gradient_smooth(grid, b)));
+    jump_smooth = std::max(
+        jump_smooth, length(eval_grid_gradient_smooth(grid, a) -
+                            eval_grid_gradient_smooth(grid, b)));
   }
   CHECK(jump_smooth < 2e-3f);
   CHECK(jump_plain > 5 * jump_smooth);
@@ -336,13 +341,22 @@ TEST_CASE("grid rejects bad dims and degenerate rays") {
   auto grid  = sample_grid({4, 4, 4}, 1.0f, [](vec3f p) { return p.x - 1.5f; });
   auto t     = 0.0f;
   auto steps = 0;
-  CHECK(!intersect_grid(grid, ray3f{{-1, 1, 1}, {0, 0, 0}, 0, flt_max}, t, steps));
-  CHECK(!intersect_grid(grid, ray3f{{NAN, 1, 1}, {1, 0, 0}, 0, flt_max}, t, steps));
-  CHECK(!intersect_grid(grid, ray3f{{-1, 1, 1}, {-1, 0, 0}, 0, flt_max}, t, steps));
+  CHECK(!intersect_grid(
+      grid, ray3f{{-1, 1, 1}, {0, 0, 0}, 0, flt_max}, t, steps));
+  CHECK(!intersect_grid(
+      grid, ray3f{{NAN, 1, 1}, {1, 0, 0}, 0, flt_max}, t, steps));
+  CHECK(!intersect_grid(
+      grid, ray3f{{-1, 1, 1}, {-1, 0, 0}, 0, flt_max}, t, steps));
+  // Denormal direction components and rays along voxel faces.
+  REQUIRE(intersect_grid(
+      grid, ray3f{{5, 1, 1}, {-1, 1e-42f, -1e-40f}, 0, flt_max}, t, steps));
+  CHECK(t == doctest::Approx(3.5f));
   // x < 1.5 is solid and the x = 0 face closes it.
-  REQUIRE(intersect_grid(grid, ray3f{{-1, 1, 1}, {1, 0, 0}, 0, flt_max}, t, steps));
+  REQUIRE(
+      intersect_grid(grid, ray3f{{-1, 1, 1}, {1, 0, 0}, 0, flt_max}, t, steps));
   CHECK(t == doctest::Approx(1));
-  REQUIRE(intersect_grid(grid, ray3f{{5, 1, 1}, {-1, 0, 0}, 0, flt_max}, t, steps));
+  REQUIRE(
+      intersect_grid(grid, ray3f{{5, 1, 1}, {-1, 0, 0}, 0, flt_max}, t, steps));
   CHECK(t == doctest::Approx(3.5f));
   CHECK(has_grid_accel(grid));
   auto stats = compute_grid_stats(grid);
@@ -351,4 +365,46 @@ TEST_CASE("grid rejects bad dims and degenerate rays") {
   CHECK(stats.negative_samples == 32);
   CHECK(stats.surface_voxels == 9);
   CHECK(stats.negative_boundary == 28);
+}
+
+TEST_CASE("grid bake samples an SDF program") {
+  auto node    = sdf_node{};
+  node.type    = sdf_type::sphere;
+  node.radius  = 0.5f;
+  auto program = make_primitive_program(node);
+  // The sphere's local origin sits at world (1, 2, 3).
+  auto local_from_world = frame3f{
+      {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, -2, -3}};
+  auto bounds = bbox3f{{0.4f, 1.4f, 2.4f}, {1.6f, 2.6f, 3.6f}};
+  auto calls  = 0;
+  auto grid   = bake_grid(
+        program, local_from_world, bounds, 0.1f, [&](int done, int total) {
+        calls++;
+        CHECK(done <= total);
+      });
+  CHECK(grid.dims == vec3i{13, 13, 13});
+  CHECK(grid.origin == bounds.min);
+  CHECK(has_grid_accel(grid));
+  CHECK(calls > 0);
+  for (auto [i, j, k] : {std::array<int, 3>{0, 0, 0}, {6, 6, 6}, {3, 9, 12}}) {
+    auto p = bounds.min + vec3f{(float)i, (float)j, (float)k} * 0.1f;
+    CHECK(grid_value(grid, i, j, k) ==
+          doctest::Approx(length(p - vec3f{1, 2, 3}) - 0.5f).epsilon(1e-5));
+  }
+  // A frame that stretches by 2 halves the local distances back to world.
+  auto stretched = frame3f{{2, 0, 0}, {0, 2, 0}, {0, 0, 2}, {-2, -4, -6}};
+  auto half      = bake_grid(program, stretched, bounds, 0.1f);
+  CHECK(grid_value(half, 0, 0, 0) ==
+        doctest::Approx((2 * length(bounds.min - vec3f{1, 2, 3}) - 0.5f) / 2)
+            .epsilon(1e-5));
+  // Unbounded, empty or over-budget requests are refused.
+  auto plane = sdf_node{};
+  plane.type = sdf_type::plane;
+  CHECK_THROWS_AS(bake_grid(make_primitive_program(plane), identity_frame,
+                      sdf_bounds(make_primitive_program(plane)), 0.1f),
+      io_error);
+  CHECK_THROWS_AS(bake_grid(program, identity_frame, bounds, 0), io_error);
+  CHECK_THROWS_AS(bake_grid(program, identity_frame, bounds, 1e-7f), io_error);
+  CHECK_THROWS_AS(
+      bake_grid(sdf_program{}, identity_frame, bounds, 0.1f), io_error);
 }

@@ -11,8 +11,8 @@
 #include <openvdb/openvdb.h>
 
 #include <cstdio>
-#include <sstream>
 #include <mutex>
+#include <sstream>
 
 #include "../util/error.h"
 #include "sdf_grid_file.h"
@@ -61,11 +61,13 @@ grid_data load_vdb_grid(const std::string& filename) {
     stream.exceptions(std::ios::failbit | std::ios::badbit);
     grids = openvdb::io::Stream(stream, false).getGrids();
   } catch (const std::ios_base::failure&) {
-    throw_io_error(filename, "not a readable OpenVDB file: truncated or corrupt "
-                             "(a read ran past the end)");
+    throw_io_error(filename,
+        "not a readable OpenVDB file: truncated or corrupt "
+        "(a read ran past the end)");
   } catch (const std::exception& error) {
     // OpenVDB throws its own exceptions, and bad_alloc for garbage sizes.
-    throw_io_error(filename, std::string("not a readable OpenVDB file: ") + error.what());
+    throw_io_error(
+        filename, std::string("not a readable OpenVDB file: ") + error.what());
   }
   if (!grids) throw_io_error(filename, "not a readable OpenVDB file");
   auto level_set = openvdb::FloatGrid::Ptr{};
@@ -78,14 +80,16 @@ grid_data load_vdb_grid(const std::string& filename) {
     level_set = openvdb::gridPtrCast<openvdb::FloatGrid>(base);
   }
   if (!level_set)
-    throw_io_error(filename, "no float level set grid; found: " +
-                                 (found.empty() ? std::string("no grids") : found));
+    throw_io_error(
+        filename, "no float level set grid; found: " +
+                      (found.empty() ? std::string("no grids") : found));
   auto name    = "grid '" + level_set->getName() + "': ";
   auto spacing = uniform_voxel_size(level_set->transform());
   if (spacing == 0)
-    throw_io_error(filename, name +
-                                 "the transform rotates, shears or scales unevenly; "
-                                 "only axis-aligned cubic voxels are supported");
+    throw_io_error(
+        filename, name +
+                      "the transform rotates, shears or scales unevenly; "
+                      "only axis-aligned cubic voxels are supported");
   auto box = level_set->evalActiveVoxelBoundingBox();
   if (box.empty()) throw_io_error(filename, name + "no active voxels");
   auto lo    = box.min();
@@ -106,9 +110,10 @@ grid_data load_vdb_grid(const std::string& filename) {
       for (auto i = 0; i < grid.dims.x; i++) {
         auto v = accessor.getValue(lo.offsetBy(i, j, k));
         if (!std::isfinite(v))
-          throw_io_error(filename, name + "voxel (" + std::to_string(lo.x() + i) +
-                                       "," + std::to_string(lo.y() + j) + "," +
-                                       std::to_string(lo.z() + k) + ") is not finite");
+          throw_io_error(
+              filename, name + "voxel (" + std::to_string(lo.x() + i) + "," +
+                            std::to_string(lo.y() + j) + "," +
+                            std::to_string(lo.z() + k) + ") is not finite");
         grid.values[index++] = v;
       }
     }
@@ -124,7 +129,8 @@ void save_vdb_grid(const std::string& filename, const grid_data& grid) {
   auto level_set = openvdb::FloatGrid::create(3 * grid.spacing);
   level_set->setName("sdf");
   level_set->setGridClass(openvdb::GRID_LEVEL_SET);
-  auto transform = openvdb::math::Transform::createLinearTransform(grid.spacing);
+  auto transform = openvdb::math::Transform::createLinearTransform(
+      grid.spacing);
   transform->postTranslate(
       openvdb::Vec3d(grid.origin.x, grid.origin.y, grid.origin.z));
   level_set->setTransform(transform);

@@ -34,7 +34,8 @@ double mesh_volume(const mesh_data& mesh) {
   // Sum of signed tetrahedra against the origin (divergence theorem).
   auto volume = 0.0;
   for (auto& t : mesh.triangles) {
-    auto a = mesh.positions[t.x], b = mesh.positions[t.y], c = mesh.positions[t.z];
+    auto a = mesh.positions[t.x], b = mesh.positions[t.y],
+         c = mesh.positions[t.z];
     volume += (double)dot(a, cross(b, c));
   }
   return volume / 6;
@@ -81,9 +82,10 @@ static void distance_transform_line(
 // voxels to the nearest seed (three separable passes).
 static void distance_transform(std::vector<float>& values, vec3i n) {
   // A finite "infinity" keeps the parabola intersections exact in double.
-  auto infinity = 16.0 * ((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z);
-  int  stride[3] = {1, n.x, n.x * n.y};
-  int  length[3] = {n.x, n.y, n.z};
+  auto infinity = 16.0 *
+                  ((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z);
+  int stride[3] = {1, n.x, n.x * n.y};
+  int length[3] = {n.x, n.y, n.z};
   for (auto axis = 0; axis < 3; axis++) {
     auto lines = (int)(values.size() / (size_t)length[axis]);
     tbb::parallel_for(tbb::blocked_range<int>(0, lines),
@@ -96,7 +98,8 @@ static void distance_transform(std::vector<float>& values, vec3i n) {
             // The line's first sample: the other two coordinates.
             auto start = size_t{0};
             if (axis == 0) start = (size_t)line * n.x;
-            if (axis == 1) start = (size_t)(line % n.x) + (size_t)(line / n.x) * n.x * n.y;
+            if (axis == 1)
+              start = (size_t)(line % n.x) + (size_t)(line / n.x) * n.x * n.y;
             if (axis == 2) start = (size_t)line;
             for (auto q = 0; q < m; q++) {
               auto value = values[start + (size_t)q * stride[axis]];
@@ -104,8 +107,8 @@ static void distance_transform(std::vector<float>& values, vec3i n) {
             }
             distance_transform_line(f.data(), m, d.data(), v.data(), z.data());
             for (auto q = 0; q < m; q++)
-              values[start + (size_t)q * stride[axis]] =
-                  (float)std::min(d[q], infinity);
+              values[start + (size_t)q * stride[axis]] = (float)std::min(
+                  d[q], infinity);
           }
         });
   }
@@ -135,9 +138,9 @@ grid_data mesh_to_grid(
       (int64_t)(hi[1] - lo[1] + 1), (int64_t)(hi[2] - lo[2] + 1));
   if (!error.empty()) throw io_error("mesh: " + error);
   auto min_coord = openvdb::Coord((int)lo[0], (int)lo[1], (int)lo[2]);
-  auto grid      = make_grid({(int)(hi[0] - lo[0] + 1), (int)(hi[1] - lo[1] + 1),
+  auto grid = make_grid({(int)(hi[0] - lo[0] + 1), (int)(hi[1] - lo[1] + 1),
                             (int)(hi[2] - lo[2] + 1)},
-           voxel, vec3f{(float)lo[0], (float)lo[1], (float)lo[2]} * voxel, 0);
+      voxel, vec3f{(float)lo[0], (float)lo[1], (float)lo[2]} * voxel, 0);
 
   init_openvdb();
   auto points = std::vector<openvdb::Vec3s>{};
@@ -156,8 +159,9 @@ grid_data mesh_to_grid(
   auto level_set = openvdb::FloatGrid::Ptr{};
   try {
     if (shell > 0) {
-      level_set = openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(
-          *transform, points, triangles, quads, band);
+      level_set =
+          openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(
+              *transform, points, triangles, quads, band);
     } else {
       level_set = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
           *transform, points, triangles, quads, band, band);
@@ -178,9 +182,9 @@ grid_data mesh_to_grid(
           auto index = (size_t)n.x * (size_t)n.y * (size_t)k;
           for (auto j = 0; j < n.y; j++) {
             for (auto i = 0; i < n.x; i++, index++) {
-              auto ijk            = min_coord.offsetBy(i, j, k);
-              grid.values[index]  = accessor.getValue(ijk);
-              far[index]          = accessor.isValueOn(ijk) ? 0 : flt_max;
+              auto ijk           = min_coord.offsetBy(i, j, k);
+              grid.values[index] = accessor.getValue(ijk);
+              far[index]         = accessor.isValueOn(ijk) ? 0 : flt_max;
             }
           }
         }
@@ -223,13 +227,15 @@ mesh_data grid_to_mesh(const grid_data& grid) {
   // Voxels outside the grid read a huge positive background, so the
   // crossing between a negative boundary sample and the outside sits on
   // the box face: the box closes the surface as in tracing.
-  auto outside = 1e6f * grid.spacing;
-  auto vdb     = openvdb::FloatGrid::create(outside);
-  auto transform = openvdb::math::Transform::createLinearTransform(grid.spacing);
-  transform->postTranslate(openvdb::Vec3d(grid.origin.x, grid.origin.y, grid.origin.z));
+  auto outside   = 1e6f * grid.spacing;
+  auto vdb       = openvdb::FloatGrid::create(outside);
+  auto transform = openvdb::math::Transform::createLinearTransform(
+      grid.spacing);
+  transform->postTranslate(
+      openvdb::Vec3d(grid.origin.x, grid.origin.y, grid.origin.z));
   vdb->setTransform(transform);
-  auto box = openvdb::CoordBBox(openvdb::Coord(0, 0, 0),
-      openvdb::Coord(grid.dims.x - 1, grid.dims.y - 1, grid.dims.z - 1));
+  auto box   = openvdb::CoordBBox(openvdb::Coord(0, 0, 0),
+        openvdb::Coord(grid.dims.x - 1, grid.dims.y - 1, grid.dims.z - 1));
   auto dense = openvdb::tools::Dense<const float, openvdb::tools::LayoutXYZ>(
       box, grid.values.data());
   openvdb::tools::copyFromDense(dense, *vdb, 0.0f);
@@ -246,7 +252,8 @@ mesh_data grid_to_mesh(const grid_data& grid) {
   mesh.positions.reserve(points.size());
   for (auto& p : points) mesh.positions.push_back({p.x(), p.y(), p.z()});
   mesh.triangles.reserve(triangles.size() + 2 * quads.size());
-  for (auto& t : triangles) mesh.triangles.push_back({(int)t[0], (int)t[1], (int)t[2]});
+  for (auto& t : triangles)
+    mesh.triangles.push_back({(int)t[0], (int)t[1], (int)t[2]});
   for (auto& q : quads) {
     mesh.triangles.push_back({(int)q[0], (int)q[1], (int)q[2]});
     mesh.triangles.push_back({(int)q[0], (int)q[2], (int)q[3]});

@@ -31,7 +31,8 @@ static std::string path_extension(const std::string& filename) {
 template <typename T>
 static bool parse_token(std::string_view token, T& value) {
   if (!token.empty() && token[0] == '+') token.remove_prefix(1);
-  auto [ptr, ec] = std::from_chars(token.data(), token.data() + token.size(), value);
+  auto [ptr, ec] = std::from_chars(
+      token.data(), token.data() + token.size(), value);
   return ec == std::errc{} && ptr == token.data() + token.size();
 }
 
@@ -77,27 +78,31 @@ static mesh_data load_obj(const std::string& filename) {
         auto token = next_word(line);
         if (!parse_token(token, c) || !std::isfinite(c))
           throw_line(filename, line_no,
-              "vertex: '" + token_excerpt(token.data(), token.data() + token.size()) +
+              "vertex: '" +
+                  token_excerpt(token.data(), token.data() + token.size()) +
                   "' is not a finite number");
       }
       mesh.positions.push_back({xyz[0], xyz[1], xyz[2]});
     } else if (key == "f") {
       polygon.clear();
-      for (auto token = next_word(line); !token.empty(); token = next_word(line)) {
+      for (auto token = next_word(line); !token.empty();
+           token      = next_word(line)) {
         // v, v/vt, v//vn or v/vt/vn: only the position index matters.
         auto index = int64_t{0};
         auto slash = token.find('/');
         auto count = (int64_t)mesh.positions.size();
         if (!parse_token(token.substr(0, slash), index) || index == 0)
           throw_line(filename, line_no,
-              "face: '" + token_excerpt(token.data(), token.data() + token.size()) +
+              "face: '" +
+                  token_excerpt(token.data(), token.data() + token.size()) +
                   "' is not a vertex index");
         // Negative indices count back from the last vertex so far.
         auto resolved = index > 0 ? index - 1 : count + index;
         if (resolved < 0 || resolved >= count)
           throw_line(filename, line_no,
-              "face: vertex index " + std::to_string(index) + " out of range (" +
-                  std::to_string(count) + " vertices so far)");
+              "face: vertex index " + std::to_string(index) +
+                  " out of range (" + std::to_string(count) +
+                  " vertices so far)");
         polygon.push_back((int)resolved);
       }
       if (polygon.size() < 3)
@@ -187,10 +192,10 @@ static bool parse_ply_type(std::string_view name, ply_type& type) {
       {"uchar", ply_type::u8}, {"uint8", ply_type::u8},
       {"short", ply_type::i16}, {"int16", ply_type::i16},
       {"ushort", ply_type::u16}, {"uint16", ply_type::u16},
-      {"int", ply_type::i32}, {"int32", ply_type::i32},
-      {"uint", ply_type::u32}, {"uint32", ply_type::u32},
-      {"float", ply_type::f32}, {"float32", ply_type::f32},
-      {"double", ply_type::f64}, {"float64", ply_type::f64}};
+      {"int", ply_type::i32}, {"int32", ply_type::i32}, {"uint", ply_type::u32},
+      {"uint32", ply_type::u32}, {"float", ply_type::f32},
+      {"float32", ply_type::f32}, {"double", ply_type::f64},
+      {"float64", ply_type::f64}};
   for (auto& e : names) {
     if (name == e.name) {
       type = e.type;
@@ -228,8 +233,8 @@ static double read_ply_value(ply_reader& r, ply_type type) {
   }
   auto size = ply_size(type);
   if (r.end - r.p < size)
-    throw_io_error(r.filename, "byte " + std::to_string(r.p - r.begin) +
-                                   ": unexpected end of file");
+    throw_io_error(r.filename,
+        "byte " + std::to_string(r.p - r.begin) + ": unexpected end of file");
   auto value = 0.0;
   switch (type) {
     case ply_type::i8: value = (int8_t)*r.p; break;
@@ -271,9 +276,9 @@ static mesh_data load_ply(const std::string& filename) {
   auto file = mapped_file{filename};
   auto text = std::string_view(file.data, file.size);
   // Header, line by line.
-  auto elements = std::vector<ply_element>{};
-  auto format   = std::string{};
-  auto line_no  = int64_t{0};
+  auto elements   = std::vector<ply_element>{};
+  auto format     = std::string{};
+  auto line_no    = int64_t{0};
   auto header_end = false;
   while (!text.empty() && !header_end) {
     auto end  = text.find('\n');
@@ -282,7 +287,8 @@ static mesh_data load_ply(const std::string& filename) {
     line_no++;
     auto key = next_word(line);
     if (line_no == 1) {
-      if (key != "ply") throw_line(filename, 1, "not a PLY file (no 'ply' magic)");
+      if (key != "ply")
+        throw_line(filename, 1, "not a PLY file (no 'ply' magic)");
     } else if (key == "format") {
       format = std::string(next_word(line));
       if (format == "binary_big_endian")
@@ -293,7 +299,8 @@ static mesh_data load_ply(const std::string& filename) {
       auto element = ply_element{};
       element.name = std::string(next_word(line));
       if (!parse_token(next_word(line), element.count) || element.count < 0)
-        throw_line(filename, line_no, "element " + element.name + ": bad count");
+        throw_line(
+            filename, line_no, "element " + element.name + ": bad count");
       elements.push_back(element);
     } else if (key == "property") {
       if (elements.empty())
@@ -307,19 +314,21 @@ static mesh_data load_ply(const std::string& filename) {
         type = next_word(line);
       }
       if (!parse_ply_type(type, property.type))
-        throw_line(filename, line_no, "unknown property type '" + std::string(type) + "'");
+        throw_line(filename, line_no,
+            "unknown property type '" + std::string(type) + "'");
       property.name = std::string(next_word(line));
       elements.back().properties.push_back(property);
     } else if (key == "end_header") {
       header_end = true;
     } else if (key != "comment" && key != "obj_info" && !key.empty()) {
-      throw_line(filename, line_no, "unknown header line '" + std::string(key) + "'");
+      throw_line(
+          filename, line_no, "unknown header line '" + std::string(key) + "'");
     }
   }
   if (!header_end) throw_io_error(filename, "PLY header has no end_header");
   if (format.empty()) throw_io_error(filename, "PLY header has no format line");
 
-  auto r     = ply_reader{filename, file.data, text.data(), file.data + file.size,
+  auto r = ply_reader{filename, file.data, text.data(), file.data + file.size,
       format == "ascii", line_no + 1};
   auto mesh    = mesh_data{};
   auto polygon = std::vector<int>{};
@@ -333,13 +342,15 @@ static mesh_data load_ply(const std::string& filename) {
                                    std::to_string(element.count) +
                                    " elements do not fit in the file");
     auto is_vertex = element.name == "vertex", is_face = element.name == "face";
-    int  xyz[3]    = {-1, -1, -1};
-    auto indices   = -1;
+    int  xyz[3]  = {-1, -1, -1};
+    auto indices = -1;
     for (auto i = 0; i < (int)element.properties.size(); i++) {
       auto& p = element.properties[i];
-      if (is_vertex && !p.is_list && p.name.size() == 1 && p.name[0] >= 'x' && p.name[0] <= 'z')
+      if (is_vertex && !p.is_list && p.name.size() == 1 && p.name[0] >= 'x' &&
+          p.name[0] <= 'z')
         xyz[p.name[0] - 'x'] = i;
-      if (is_face && p.is_list && (p.name == "vertex_indices" || p.name == "vertex_index"))
+      if (is_face && p.is_list &&
+          (p.name == "vertex_indices" || p.name == "vertex_index"))
         indices = i;
     }
     if (is_vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
@@ -361,16 +372,17 @@ static mesh_data load_ply(const std::string& filename) {
         auto place = ply_place(r);
         auto count = read_ply_value(r, p.count_type);
         if (!(count >= 0) || count > (double)(r.end - r.p))
-          throw_io_error(filename, place + ": list length " + std::to_string(count) +
+          throw_io_error(filename, place + ": list length " +
+                                       std::to_string(count) +
                                        " does not fit in the file");
         if (i == indices) polygon.clear();
         for (auto n = 0; n < (int)count; n++) {
           auto value = read_ply_value(r, p.type);
           if (i == indices) {
             if (!(value >= 0) || value >= (double)mesh.positions.size())
-              throw_io_error(filename, place + ": face " + std::to_string(e) +
-                                           ": vertex index " + std::to_string(value) +
-                                           " out of range");
+              throw_io_error(filename,
+                  place + ": face " + std::to_string(e) + ": vertex index " +
+                      std::to_string(value) + " out of range");
             polygon.push_back((int)value);
           }
         }
@@ -383,8 +395,8 @@ static mesh_data load_ply(const std::string& filename) {
       }
       if (is_vertex) {
         if (!isfinite(position))
-          throw_io_error(filename, ply_place(r) + ": vertex " + std::to_string(e) +
-                                       " is not finite");
+          throw_io_error(filename, ply_place(r) + ": vertex " +
+                                       std::to_string(e) + " is not finite");
         mesh.positions.push_back(position);
       }
     }
@@ -393,14 +405,18 @@ static mesh_data load_ply(const std::string& filename) {
 }
 
 static void save_ply(const std::string& filename, const mesh_data& mesh) {
-  auto out    = output_file{filename};
-  auto header = "ply\nformat binary_little_endian 1.0\ncomment written by ysdf (implicit)\n"
-                "element vertex " + std::to_string(mesh.positions.size()) +
-                "\nproperty float x\nproperty float y\nproperty float z\n"
-                "element face " + std::to_string(mesh.triangles.size()) +
-                "\nproperty list uchar int vertex_indices\nend_header\n";
+  auto out = output_file{filename};
+  auto header =
+      "ply\nformat binary_little_endian 1.0\ncomment written by ysdf (implicit)\n"
+      "element vertex " +
+      std::to_string(mesh.positions.size()) +
+      "\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face " +
+      std::to_string(mesh.triangles.size()) +
+      "\nproperty list uchar int vertex_indices\nend_header\n";
   write_bytes(out, header.data(), header.size());
-  write_bytes(out, mesh.positions.data(), mesh.positions.size() * sizeof(vec3f));
+  write_bytes(
+      out, mesh.positions.data(), mesh.positions.size() * sizeof(vec3f));
   auto buffer = std::vector<char>{};
   buffer.reserve(13 * 4096);
   for (auto& t : mesh.triangles) {
@@ -424,14 +440,16 @@ mesh_data load_mesh(const std::string& filename) {
   auto ext = path_extension(filename);
   if (ext == ".obj") return load_obj(filename);
   if (ext == ".ply") return load_ply(filename);
-  throw_io_error(filename, "unknown mesh extension '" + ext + "' (use .obj or .ply)");
+  throw_io_error(
+      filename, "unknown mesh extension '" + ext + "' (use .obj or .ply)");
 }
 
 void save_mesh(const std::string& filename, const mesh_data& mesh) {
   auto ext = path_extension(filename);
   if (ext == ".obj") return save_obj(filename, mesh);
   if (ext == ".ply") return save_ply(filename, mesh);
-  throw_io_error(filename, "unknown mesh extension '" + ext + "' (use .obj or .ply)");
+  throw_io_error(
+      filename, "unknown mesh extension '" + ext + "' (use .obj or .ply)");
 }
 
 }  // namespace implicit

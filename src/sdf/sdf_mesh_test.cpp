@@ -39,8 +39,9 @@ void append(std::string& bytes, T value) {
 mesh_data cube_mesh(float s, vec3f o, bool open = false) {
   auto mesh = mesh_data{};
   for (auto c = 0; c < 8; c++)
-    mesh.positions.push_back(
-        o + vec3f{(float)(c & 1), (float)((c >> 1) & 1), (float)((c >> 2) & 1)} * s);
+    mesh.positions.push_back(o + vec3f{(float)(c & 1), (float)((c >> 1) & 1),
+                                     (float)((c >> 2) & 1)} *
+                                     s);
   // Quads (outward, counter-clockwise): -x +x -y +y -z +z.
   int quads[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3},
       {0, 2, 3, 1}, {4, 5, 7, 6}};
@@ -119,8 +120,10 @@ TEST_CASE("grid mesh OBJ and PLY readers") {
     CHECK(loaded.positions.size() == 8);
     CHECK(loaded.triangles.size() == 12);
     auto same = true;
-    for (auto i = 0; i < 8; i++) same = same && loaded.positions[i] == cube.positions[i];
-    for (auto i = 0; i < 12; i++) same = same && loaded.triangles[i] == cube.triangles[i];
+    for (auto i = 0; i < 8; i++)
+      same = same && loaded.positions[i] == cube.positions[i];
+    for (auto i = 0; i < 12; i++)
+      same = same && loaded.triangles[i] == cube.triangles[i];
     CHECK(same);
   }
   CHECK(mesh_volume(cube) == doctest::Approx(0.027).epsilon(1e-5));
@@ -128,18 +131,22 @@ TEST_CASE("grid mesh OBJ and PLY readers") {
 
 TEST_CASE("grid mesh readers refuse bad files") {
   CHECK(load_error("empty.obj", "").find("empty file") != std::string::npos);
-  CHECK(load_error("index.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n")
-            .find(":3: face: vertex index 3 out of range") != std::string::npos);
-  CHECK(load_error("zero.obj", "v 0 0 0\nf 0 1 1\n").find("is not a vertex index") !=
+  CHECK(
+      load_error("index.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n")
+          .find(":3: face: vertex index 3 out of range") != std::string::npos);
+  CHECK(load_error("zero.obj", "v 0 0 0\nf 0 1 1\n")
+            .find("is not a vertex index") != std::string::npos);
+  CHECK(load_error("nan.obj", "v 0 nan 0\n")
+            .find(":1: vertex: 'nan' is not a finite") != std::string::npos);
+  CHECK(load_error("short.obj", "v 0 0\n").find(":1: vertex") !=
         std::string::npos);
-  CHECK(load_error("nan.obj", "v 0 nan 0\n").find(":1: vertex: 'nan' is not a finite") !=
-        std::string::npos);
-  CHECK(load_error("short.obj", "v 0 0\n").find(":1: vertex") != std::string::npos);
   CHECK(load_error("mesh.stl", "solid").find("unknown mesh extension '.stl'") !=
         std::string::npos);
-  CHECK(load_error("magic.ply", "plx\n").find(":1: not a PLY file") != std::string::npos);
+  CHECK(load_error("magic.ply", "plx\n").find(":1: not a PLY file") !=
+        std::string::npos);
   CHECK(load_error("big.ply", "ply\nformat binary_big_endian 1.0\n")
-            .find(":2: binary big endian PLY is not supported") != std::string::npos);
+            .find(":2: binary big endian PLY is not supported") !=
+        std::string::npos);
   CHECK(load_error("noend.ply", "ply\nformat ascii 1.0\nelement vertex 1\n")
             .find("no end_header") != std::string::npos);
   auto header = std::string{
@@ -158,19 +165,20 @@ TEST_CASE("grid mesh readers refuse bad files") {
   append(bad_index, 0);
   append(bad_index, 1);
   append(bad_index, 5);
-  CHECK(load_error("bad_index.ply", bad_index).find("vertex index 5.000000 out of range") !=
-        std::string::npos);
-  CHECK(load_error("ascii_junk.ply",
-            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-            "property float z\nend_header\n1 zz 3\n")
-            .find("'zz' is not a number") != std::string::npos);
+  CHECK(load_error("bad_index.ply", bad_index)
+            .find("vertex index 5.000000 out of range") != std::string::npos);
+  CHECK(
+      load_error("ascii_junk.ply",
+          "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+          "property float z\nend_header\n1 zz 3\n")
+          .find("'zz' is not a number") != std::string::npos);
 }
 
 TEST_CASE("grid mesh to grid and back") {
   // A closed cube: exact distances to a box.
-  auto cube   = cube_mesh(0.5f, {0.1f, 0.2f, 0.3f});
-  auto voxel  = 0.05f;
-  auto grid   = mesh_to_grid(cube, voxel, 3);
+  auto cube  = cube_mesh(0.5f, {0.1f, 0.2f, 0.3f});
+  auto voxel = 0.05f;
+  auto grid  = mesh_to_grid(cube, voxel, 3);
   REQUIRE(has_grid_accel(grid));
   // The lattice voxel*(i,j,k) around the cube plus 3 voxels (16 or 17
   // voxels depending on how 0.1/0.05 rounds).
@@ -178,7 +186,8 @@ TEST_CASE("grid mesh to grid and back") {
   CHECK(grid.dims.x <= 18);
   CHECK(grid.origin.x <= 0.1f - 3 * voxel + 1e-6f);
   CHECK(grid.origin.x >= 0.1f - 4 * voxel - 1e-6f);
-  CHECK(std::abs(grid.origin.x / voxel - std::round(grid.origin.x / voxel)) < 1e-4f);
+  CHECK(std::abs(grid.origin.x / voxel - std::round(grid.origin.x / voxel)) <
+        1e-4f);
   // Exact in the band; beyond it a lower bound about 2 voxels short.
   auto worst_band = 0.0f, worst_over = 0.0f, worst_under = 0.0f;
   auto wrong_sign = 0;
@@ -194,7 +203,8 @@ TEST_CASE("grid mesh to grid and back") {
           worst_band = std::max(worst_band, std::abs(value - exact));
         worst_over  = std::max(worst_over, std::abs(value) - std::abs(exact));
         worst_under = std::max(worst_under, std::abs(exact) - std::abs(value));
-        if (std::abs(exact) > 0.1f * voxel && (value < 0) != (exact < 0)) wrong_sign++;
+        if (std::abs(exact) > 0.1f * voxel && (value < 0) != (exact < 0))
+          wrong_sign++;
       }
   CHECK(worst_band < 0.05f * voxel);
   CHECK(worst_over < 0.05f * voxel);
@@ -209,7 +219,7 @@ TEST_CASE("grid mesh to grid and back") {
   CHECK(distance(bounds.min, vec3f{0.1f, 0.2f, 0.3f}) < 0.01f);
 
   // An open cube has no inside; a shell makes one.
-  auto open = cube_mesh(0.5f, {0, 0, 0}, true);
+  auto open    = cube_mesh(0.5f, {0, 0, 0}, true);
   auto message = std::string{};
   try {
     mesh_to_grid(open, voxel, 3);
@@ -231,11 +241,14 @@ TEST_CASE("grid mesh to grid and back") {
     for (auto j = 0; j < 25; j++)
       for (auto i = 0; i < 17; i++)
         clipped.values[i + 17 * (j + 25 * k)] =
-            length(vec3f{(float)i, (float)j, (float)k} * 0.05f - vec3f{0.5f, 0.6f, 0.6f}) - 0.5f;
+            length(vec3f{(float)i, (float)j, (float)k} * 0.05f -
+                   vec3f{0.5f, 0.6f, 0.6f}) -
+            0.5f;
   update_grid_accel(clipped);
   auto cap      = pif * 0.2 * 0.2 * (3 * 0.5 - 0.2) / 3;
   auto expected = 4 * pif * 0.125 / 3 - cap;
-  CHECK(mesh_volume(grid_to_mesh(clipped)) == doctest::Approx(expected).epsilon(0.02));
+  CHECK(mesh_volume(grid_to_mesh(clipped)) ==
+        doctest::Approx(expected).epsilon(0.02));
 }
 
 TEST_CASE("grid mesh loads the shared bunny") {
