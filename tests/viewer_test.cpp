@@ -22,42 +22,13 @@
 using namespace implicit;
 namespace fs = std::filesystem;
 
+#include "test_commands.h"
+
+using namespace implicit_test;
+
 namespace {
 
-struct command_result {
-  int         status = -1;
-  std::string output = "";  // stdout and stderr together
-};
-
-// Run a shell command, collecting its output.
-command_result run_command(const std::string& command) {
-  auto result = command_result{};
-  auto pipe   = popen((command + " 2>&1").c_str(), "r");
-  REQUIRE(pipe != nullptr);
-  char buffer[4096];
-  while (auto n = fread(buffer, 1, sizeof(buffer), pipe))
-    result.output.append(buffer, n);
-  auto status   = pclose(pipe);
-  result.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
-std::string ypathtrace_path() {
-  auto env = std::getenv("IMPLICIT_YPATHTRACE");
-  return env ? env : std::string{IMPLICIT_BINARY_DIR} + "/ypathtrace";
-}
-
-std::string example_scene() {
-  return std::string{IMPLICIT_SOURCE_DIR} + "/examples/sdfunction/sdfunction.json";
-}
-
-// A fresh directory for one test's files.
-fs::path test_dir(const std::string& name) {
-  auto dir = fs::path{IMPLICIT_BINARY_DIR} / "test_outputs" / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+std::string ypathtrace_path() { return program_path("ypathtrace"); }
 
 // An executable of that name on PATH, or "".
 std::string find_program(const std::string& name) {

@@ -3,7 +3,7 @@
 #
 #   make_grids.sh [YSDF] [BUNNY_MESH]
 #
-# YSDF defaults to build/rel/ysdf. The bunnies come from the Stanford bunny
+# YSDF defaults to build/release/ysdf. The bunnies come from the Stanford bunny
 # mesh (BUNNY_MESH, default ../shared/meshes/bunny.ply next to the repo) via
 # OpenVDB; without it a blobby stand-in bunny is baked from ellipsoids. The
 # other two shapes are baked from analytic CSG. Every grid has voxel 0.002
@@ -11,7 +11,7 @@
 # at a known place: the vol_instances' frames in gridsdf.json rely on it.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
-ysdf="${1:-$here/../../build/rel/ysdf}"
+ysdf="${1:-$here/../../build/release/ysdf}"
 bunny_mesh="${2:-$here/../../../shared/meshes/bunny.ply}"
 voxel=0.002
 mkdir -p "$here/sdfs"

@@ -1,0 +1,92 @@
+// End-to-end tests of the ysdf command: info, convert, bake, meshes, errors.
+
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "sdf/sdf_grid_io.h"
+#include "test_commands.h"
+
+using namespace implicit;
+using namespace implicit_test;
+
+namespace {
+
+command_result run_ysdf(const std::string& arguments) {
+  return run_command(program_path("ysdf") + " " + arguments);
+}
+
+std::string shared_sample(const std::string& name) {
+  return std::string{IMPLICIT_SHARED_DIR} + "/sdf_samples/" + name;
+}
+
+}  // namespace
+
+TEST_CASE("ysdf: info reports dims, spacing and the surface") {
+  auto result = run_ysdf("info " + shared_sample("sdfgen_torus_R0.6_r0.2_dx0.04_pad2.sdf"));
+  INFO(result.output);
+  CHECK(result.status == 0);
+  CHECK(result.output.find("43 x 44 x 14") != std::string::npos);
+  CHECK(result.output.find("spacing:  0.04") != std::string::npos);
+  CHECK(result.output.find("zero crossing") != std::string::npos);
+}
+
+TEST_CASE("ysdf: convert round trips through every format") {
+  auto dir    = test_dir("ysdf_convert");
+  auto source = shared_sample("sdfgen_icosphere_r0.5_dx0.05_pad2.sdf");
+  auto input  = load_grid(source, grid_format::sdfgen);
+  auto chain  = std::vector<std::string>{"a.vdb", "b.vol", "c.sdf"};
+  auto from   = source;
+  for (auto& name : chain) {
+    auto to     = (dir / name).string();
+    auto result = run_ysdf("--quiet convert " + from + " " + to);
+    INFO(result.output);
+    REQUIRE(result.status == 0);
+    from = to;
+  }
+  auto output = load_grid(from, grid_format::sdfgen);
+  CHECK(output.dims == input.dims);
+  CHECK(output.spacing == doctest::Approx(input.spacing));
+  auto worst = 0.0f;
+  for (size_t i = 0; i < input.values.size(); i++)
+    worst = std::max(worst, std::abs(output.values[i] - input.values[i]));
+  CHECK(worst < 1e-5f);  // SDFGen text keeps 6+ significant digits
+}
+
+TEST_CASE("ysdf: bake a sphere and mesh it") {
+  auto dir    = test_dir("ysdf_bake");
+  auto grid   = (dir / "sphere.sdf").string();
+  auto result = run_ysdf("--quiet bake " + grid +
+                         " --voxel 0.05 --pad 2 --shape \"sphere radius=0.5\"");
+  INFO(result.output);
+  REQUIRE(result.status == 0);
+  auto baked = load_grid(grid, grid_format::sdfgen);
+  // The sample nearest the centre is about -radius.
+  auto lowest = 0.0f;
+  for (auto v : baked.values) lowest = std::min(lowest, v);
+  CHECK(lowest == doctest::Approx(-0.5f).epsilon(0.1));
+  auto mesh = (dir / "sphere.obj").string();
+  result    = run_ysdf("--quiet to-mesh " + grid + " " + mesh);
+  INFO(result.output);
+  CHECK(result.status == 0);
+  CHECK(std::filesystem::file_size(mesh) > 1000);
+}
+
+TEST_CASE("ysdf: errors are one line and exit 1") {
+  auto dir = test_dir("ysdf_errors");
+  auto bad = dir / "junk.sdf";
+  std::ofstream(bad) << "2 2 2\n0 0 0\n0.1\n1 2 3 x 5 6 7 8\n";
+  auto result = run_ysdf("info " + bad.string());
+  CHECK(result.status == 1);
+  CHECK(result.output.rfind("ysdf: ", 0) == 0);
+  CHECK(result.output.find("junk.sdf") != std::string::npos);
+  result = run_ysdf("info " + (dir / "missing.vdb").string());
+  CHECK(result.status != 0);
+  CHECK(result.output.find("missing.vdb") != std::string::npos);
+  result = run_ysdf("convert " + shared_sample("mitsuba_sdfgrid_sphere_48.vol") + " " +
+                    (dir / "out.xyz").string());
+  CHECK(result.status != 0);
+  CHECK(!std::filesystem::exists(dir / "out.xyz"));
+}
