@@ -37,19 +37,22 @@ double coverage(const image_data& image) {
 }  // namespace
 
 TEST_CASE("render: default tracer and reference mode agree on normals") {
-  auto scene        = load_scene(example_scene("sdfunction/sdfunction.json"));
-  auto params       = trace_params{};
-  params.camera     = find_camera(scene, "");
-  params.resolution = 120;
-  params.samples    = 1;
-  params.shader     = shader_type::implicit_normal;
-  auto fast         = trace_image(scene, params);
-  params.accel      = accel_type::none;
-  auto reference    = trace_image(scene, params);
-  CHECK(coverage(fast) > 0.5);
-  CHECK(coverage(fast) == doctest::Approx(coverage(reference)).epsilon(0.002));
-  CHECK(equal_fraction(fast, reference, 1 / 255.0f) >= 0.995);
-  CHECK(equal_fraction(fast, reference, 0.02f) >= 0.999);
+  for (auto name : {"sdfunction/sdfunction.json", "csg/csg.json"}) {
+    INFO(name);
+    auto scene        = load_scene(example_scene(name));
+    auto params       = trace_params{};
+    params.camera     = find_camera(scene, "");
+    params.resolution = 120;
+    params.samples    = 1;
+    params.shader     = shader_type::implicit_normal;
+    auto fast         = trace_image(scene, params);
+    params.accel      = accel_type::none;
+    auto reference    = trace_image(scene, params);
+    CHECK(coverage(fast) > 0.5);
+    CHECK(coverage(fast) == doctest::Approx(coverage(reference)).epsilon(0.002));
+    CHECK(equal_fraction(fast, reference, 1 / 255.0f) >= 0.995);
+    CHECK(equal_fraction(fast, reference, 0.02f) >= 0.999);
+  }
 }
 
 TEST_CASE("render: the example renders lit, with no NaN") {
