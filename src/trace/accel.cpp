@@ -283,8 +283,11 @@ static scene_intersection intersect_reference(
   auto t0 = 0.0f, t1 = 0.0f;
   if (!intersect_bbox(ray, expand(accel.extent, accel.hit_min), t0, t1))
     return {};
-  auto march = sphere_trace(
-      distance, ray.tmin, t1, flt_max, accel.march, accel.hit_min);
+  // The reference keeps Keinert's fixed over-relaxation.
+  auto params   = accel.march;
+  params.planar = 0;
+  auto march    = sphere_trace(
+      distance, ray.tmin, t1, flt_max, params, accel.hit_min);
   auto isec        = scene_intersection{};
   isec.evaluations = march.evaluations * (int)accel.objects.size();
   if (march.hit) {

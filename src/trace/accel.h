@@ -44,7 +44,9 @@ struct march_params {
   float hit_relative   = 1e-5f;  // fraction of the distance travelled
   float scene_epsilon  = 1e-6f;  // fraction of the scene size
   float overrelax      = 1.6f;   // Keinert et al. 2014 (1 disables)
-  float planar         = 0;      // Balint & Valasek 2018 (0 disables)
+  float planar         = 0.9f;   // Balint & Valasek 2018, replaces the
+                                 // above when > 0; the reference mode
+                                 // keeps Keinert's steps
   float fallback       = 2;      // closest approach within this many
                                  // thresholds counts as a hit
   int   linear_max     = 8;      // up to this many bounded objects are

