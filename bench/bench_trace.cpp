@@ -8,7 +8,9 @@
 // tracing (implicit) with the default BVH and with `--accel none`; Mrays/s,
 // path samples/s, SDF evaluations per ray, the speed ratios, the fraction of
 // implicit_normal pixels equal within 1/255, path throughput with 1 and 2
-// threads, and the peak memory.
+// threads, and the peak memory. Speed ratios divide CPU times measured in the
+// same run (robust when other processes share the cores); throughputs are
+// per wall-clock second.
 //
 // The reference is first timed at 1/8 of the resolution; when the full run
 // would take longer than --reference-limit seconds it is skipped, and the
@@ -26,6 +28,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -146,11 +149,19 @@ static scene_data make_random_scene(int count, uint64_t seed) {
 // -----------------------------------------------------------------------------
 
 struct run_result {
-  double     seconds     = 0;
+  double     seconds     = 0;  // wall clock
+  double     cpu         = 0;  // process CPU time, all threads
   double     samples     = 0;  // pixel samples traced
   double     evaluations = 0;
   image_data image       = {};
 };
+
+// CPU time of the whole process (all threads).
+static double cpu_seconds() {
+  auto now = timespec{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+  return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+}
 
 // Render `params.samples` passes and time them (the accel is built outside).
 static run_result run(const scene_data& scene, const accel_data& accel,
@@ -159,12 +170,14 @@ static run_result run(const scene_data& scene, const accel_data& accel,
   if (threads > 0)
     control = std::make_unique<tbb::global_control>(
         tbb::global_control::max_allowed_parallelism, (size_t)threads);
-  auto lights = make_lights(scene, accel);
-  auto state  = make_state(scene, params);
-  auto start  = std::chrono::steady_clock::now();
+  auto lights    = make_lights(scene, accel);
+  auto state     = make_state(scene, params);
+  auto start     = std::chrono::steady_clock::now();
+  auto cpu_start = cpu_seconds();
   for (auto s = 0; s < params.samples; s++)
     trace_samples(state, scene, accel, lights, params);
   auto result    = run_result{};
+  result.cpu     = cpu_seconds() - cpu_start;
   result.seconds = std::chrono::duration<double>(
       std::chrono::steady_clock::now() - start).count();
   result.samples = (double)state.width * state.height * params.samples;
@@ -210,7 +223,8 @@ static std::string fixed(double value, int digits) {
   return buffer;
 }
 
-// Measure one scene and print its table row.
+// Measure one scene and print its table row. Speed ratios divide CPU times
+// (robust on a shared machine); throughputs are per wall-clock second.
 static void bench_scene(const std::string& name, const scene_data& scene,
     const bench_options& options) {
   auto base       = trace_params{};
@@ -227,19 +241,22 @@ static void bench_scene(const std::string& name, const scene_data& scene,
   auto build_ms    = seconds_since(build_start) * 1000;
   auto slow        = make_accel(scene, accel_type::none, base.march);
 
+  // Warm up the thread pool and the caches.
+  auto low_camera       = camera;
+  auto low_path         = path;
+  low_camera.resolution = std::max(8, options.resolution / 8);
+  low_path.resolution   = low_camera.resolution;
+  low_path.samples      = 1;
+  run(scene, fast, low_path);
+
   auto fast_camera = run(scene, fast, camera);
   auto fast_path   = run(scene, fast, path);
   auto one_thread  = run(scene, fast, path, 1);
   auto two_threads = run(scene, fast, path, 2);
 
   // Reference: time it at 1/8 of the resolution first.
-  auto low_camera       = camera;
-  auto low_path         = path;
-  low_camera.resolution = std::max(8, options.resolution / 8);
-  low_path.resolution   = low_camera.resolution;
-  low_path.samples      = 1;
-  auto low_ref_camera   = run(scene, slow, low_camera);
-  auto low_ref_path     = run(scene, slow, low_path);
+  auto low_ref_camera = run(scene, slow, low_camera);
+  auto low_ref_path   = run(scene, slow, low_path);
   auto estimate =
       low_ref_camera.seconds / low_ref_camera.samples * fast_camera.samples +
       low_ref_path.seconds / low_ref_path.samples * fast_path.samples;
@@ -252,34 +269,39 @@ static void bench_scene(const std::string& name, const scene_data& scene,
     equal = fixed(100 * equal_fraction(fast_camera.image, ref_camera.image,
                             1 / 255.0f), 2) + "%";
   } else {
-    // Compare like with like: the BVH at the same low resolution.
+    // Compare like with like: the BVH at the same low resolution, scaled to
+    // the full run through the low-resolution ratio.
     auto low_fast_camera = run(scene, fast, low_camera);
     auto low_fast_path   = run(scene, fast, low_path);
-    ref_camera           = low_ref_camera;
-    ref_path             = low_ref_path;
-    // Scale the reference to the BVH's sample counts through the low-res
-    // speed ratio, so the printed ratio is that of the low-res runs.
-    ref_camera.seconds = low_ref_camera.seconds / low_fast_camera.seconds *
-                         fast_camera.seconds;
-    ref_camera.samples = fast_camera.samples;
-    ref_path.seconds   = low_ref_path.seconds / low_fast_path.seconds *
-                       fast_path.seconds;
-    ref_path.samples   = fast_path.samples;
+    auto scale_to = [](run_result ref, const run_result& low_fast,
+                        const run_result& fast_run) {
+      ref.seconds = ref.seconds / low_fast.seconds * fast_run.seconds;
+      ref.cpu     = ref.cpu / low_fast.cpu * fast_run.cpu;
+      ref.evaluations *= fast_run.samples / ref.samples;
+      ref.samples = fast_run.samples;
+      return ref;
+    };
+    ref_camera = scale_to(low_ref_camera, low_fast_camera, fast_camera);
+    ref_path   = scale_to(low_ref_path, low_fast_path, fast_path);
   }
   auto mrays = [](const run_result& r) { return r.samples / r.seconds / 1e6; };
   auto evals = [](const run_result& r) { return r.evaluations / r.samples; };
   auto mark  = skipped ? std::string{"~"} : std::string{""};
-  std::printf("| %s | %d | %.1f | %.3f | %.1f | %.4f | %.1f | %s%.4f | %s%.5f | "
-              "%s%.1f | %s%.1f | %s | %.4f | %.4f | %.2f | %.0f |%s\n",
-      name.c_str(), (int)fast.objects.size(), build_ms, mrays(fast_camera),
-      evals(fast_camera), mrays(fast_path), evals(fast_path), mark.c_str(),
-      mrays(ref_camera), mark.c_str(), mrays(ref_path), mark.c_str(),
-      ref_camera.seconds / fast_camera.seconds, mark.c_str(),
-      ref_path.seconds / fast_path.seconds, equal.c_str(), mrays(one_thread),
-      mrays(two_threads), one_thread.seconds / two_threads.seconds,
-      peak_memory_mib(),
-      skipped ? (" reference skipped (est. " + fixed(estimate, 0) + " s)").c_str()
-              : "");
+  auto note  = skipped ? " (reference est. " + fixed(estimate, 0) + " s: skipped)"
+                       : std::string{""};
+  // Two threads against one: wall clock, and CPU time per sample (what two
+  // free cores would give; the wall ratio suffers when the cores are shared).
+  auto wall_scaling = one_thread.seconds / two_threads.seconds;
+  auto cpu_scaling  = 2 * one_thread.cpu / two_threads.cpu;
+  std::printf("| %s%s | %d | %.1f | %.3f | %.1f | %.4f | %.1f | %s%.1f | %s%.1f "
+              "| %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f | %.2f | %.0f |\n",
+      name.c_str(), note.c_str(), (int)fast.objects.size(), build_ms,
+      mrays(fast_camera), evals(fast_camera), mrays(fast_path),
+      evals(fast_path), mark.c_str(), evals(ref_camera), mark.c_str(),
+      evals(ref_path), mark.c_str(), ref_camera.cpu / fast_camera.cpu,
+      mark.c_str(), ref_path.cpu / fast_path.cpu, equal.c_str(),
+      mrays(one_thread), mrays(two_threads), wall_scaling, cpu_scaling,
+      peak_memory_mib());
   std::fflush(stdout);
 }
 
@@ -351,12 +373,13 @@ int main(int argc, char** argv) {
       (int)tbb::global_control::active_value(
           tbb::global_control::max_allowed_parallelism),
       load_average().c_str());
-  std::printf("| scene | objects | BVH build ms | camera Mrays/s | evals/camera ray "
-              "| path Msamples/s | evals/path sample | ref camera Mrays/s "
-              "| ref path Msamples/s | camera speedup | path speedup "
-              "| normals equal | path Msamples/s 1 thread | 2 threads "
-              "| 2 threads / 1 | peak MiB |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| scene | objects | BVH build ms | camera Mrays/s | evals/camera ray "
+      "| path Msamples/s | evals/path sample | ref evals/camera ray "
+      "| ref evals/path sample | camera vs ref | path vs ref | normals equal "
+      "| path Msamples/s, 1 thread | 2 threads | 2 threads / 1 (wall) "
+      "| 2 threads / 1 (CPU) | peak MiB |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   auto ok = true;
   for (auto count : counts) {
     ok &= in_child([&]() {

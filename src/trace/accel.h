@@ -3,11 +3,13 @@
 // Every implicit object of the scene (SDF program, grid instance, user SDF)
 // becomes a trace_object with its world bounds and the maps to its own space.
 // intersect_scene() finds the closest hit: the default (`bvh`) puts every
-// bounded object in an Embree BVH as one user primitive, so a ray visits only
-// the objects whose boxes it crosses, and marches (or solves in closed form)
-// each in its own space inside its box; unbounded objects (planes) are tested
-// beside the BVH. The reference (`none`) reproduces the seed's loop, the
-// minimum over all objects at every step.
+// bounded object in an Embree BVH as one user primitive (scenes with a few
+// objects use a loop over their boxes, sorted by entry, instead), so a ray
+// visits only the objects whose world boxes it crosses, and solves in closed
+// form (sphere, box, plane) or marches each in its own space, inside its own
+// box; unbounded objects (planes) are tested beside the BVH. The reference
+// (`none`) reproduces the seed's loop, the minimum over all objects at every
+// step.
 //
 // The accelerated result does not depend on the order in which the BVH
 // visits the objects: each object's hit is what its own march over its whole
