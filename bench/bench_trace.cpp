@@ -355,7 +355,8 @@ int main(int argc, char** argv) {
       for (size_t pos = 0; pos < list.size();) {
         auto comma = list.find(',', pos);
         if (comma == std::string::npos) comma = list.size();
-        if (comma > pos) counts.push_back(std::atoi(list.substr(pos, comma - pos).c_str()));
+        if (comma > pos)
+          counts.push_back(std::atoi(list.substr(pos, comma - pos).c_str()));
         pos = comma + 1;
       }
     } else if (arg.rfind("--", 0) == 0) {

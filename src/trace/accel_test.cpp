@@ -12,6 +12,8 @@
 
 #include "../math/random.h"
 #include "../math/sampling.h"
+#include "../sdf/sdf_primitives.h"
+#include "sphere_trace.h"
 #include "trace.h"
 
 using namespace implicit;
@@ -552,4 +554,72 @@ TEST_CASE("accel: grazing spheres") {
       if (offset > tol) CHECK(!isec.hit);
     }
   }
+}
+
+// -----------------------------------------------------------------------------
+// MARCHING
+// -----------------------------------------------------------------------------
+
+TEST_CASE("accel: march cutoff keeps every hit before it") {
+  // Rays at a torus, many grazing it, with few iterations so that the
+  // closest-approach fallback decides some of them: a march with a cutoff
+  // gives the full march's result whenever that lies at or before the
+  // cutoff, and otherwise no hit or that same result.
+  auto rng = make_rng(16);
+  for (auto planar : {0.0f, 0.9f}) {
+    auto params           = march_params{};
+    params.planar         = planar;
+    params.max_iterations = 24;
+    auto fallbacks = 0, stopped = 0;
+    for (auto k = 0; k < 3000; k++) {
+      auto target = vec3f{rand1f(rng) - 0.5f, (rand1f(rng) - 0.5f) * 0.6f,
+                        rand1f(rng) - 0.5f} * 2.6f;
+      auto origin = sample_sphere(rand2f(rng)) * 4;
+      auto ray    = ray3f{origin, normalize(target - origin)};
+      auto distance = [&](float t) {
+        return sd_torus(ray_point(ray, t), 1, 0.25f);
+      };
+      auto full = sphere_trace(distance, 0, 8, flt_max, params, 1e-6f);
+      if (full.hit && full.epsilon > 1e-5f * full.distance * 1.5f) fallbacks++;
+      for (auto cutoff : {1.0f, 2.5f, 3.0f, 3.5f, 4.0f, 5.0f, 6.0f}) {
+        auto cut = sphere_trace(distance, 0, 8, cutoff, params, 1e-6f);
+        CHECK(cut.evaluations <= full.evaluations);
+        if (full.hit && full.distance <= cutoff) {
+          REQUIRE(cut.hit);
+          CHECK(cut.distance == full.distance);
+          CHECK(cut.epsilon == full.epsilon);
+        } else if (cut.hit) {
+          CHECK(cut.distance == full.distance);
+        } else {
+          stopped += cut.evaluations < full.evaluations;
+        }
+      }
+    }
+    CHECK(fallbacks > 0);  // the fallback was exercised
+    CHECK(stopped > 1000);  // and the cutoff saved work
+  }
+  // Rays along x over the top of the tube (y = 0.25 at x = -1 and x = 1),
+  // within the closest-approach tolerance at x = -1 and rising clear of the
+  // tube by x = 1: the full march reports the closest approach near x = -1
+  // (t = 3), and a cutoff beyond it must keep it.
+  auto params = march_params{};
+  auto eps    = params.hit_relative * 3;
+  auto kept   = 0;
+  for (auto k = 0; k <= 12; k++) {
+    auto ray      = ray3f{{-4, 0.25f + k * 0.15f * eps - 3 * 2e-4f, 0},
+        normalize(vec3f{1, 2e-4f, 0})};
+    auto distance = [&](float t) {
+      return sd_torus(ray_point(ray, t), 1, 0.25f);
+    };
+    auto full = sphere_trace(distance, 0, 8, flt_max, params, 1e-6f);
+    if (!full.hit) continue;
+    CHECK(full.distance == doctest::Approx(3).epsilon(0.01));
+    for (auto cutoff : {3.05f, 3.5f, 4.5f}) {
+      auto cut = sphere_trace(distance, 0, 8, cutoff, params, 1e-6f);
+      REQUIRE(cut.hit);
+      CHECK(cut.distance == full.distance);
+      kept++;
+    }
+  }
+  CHECK(kept >= 9);
 }
