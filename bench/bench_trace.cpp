@@ -10,7 +10,8 @@
 // implicit_normal pixels equal within 1/255, path throughput with 1 and 2
 // threads, and the peak memory. Speed ratios divide CPU times measured in the
 // same run (robust when other processes share the cores); throughputs are
-// per wall-clock second.
+// per wall-clock second, and per CPU-second (all threads together), which
+// does not depend on what else runs on the machine.
 //
 // The reference is first timed at 1/8 of the resolution; when the full run
 // would take longer than --reference-limit seconds it is skipped, and the
@@ -224,7 +225,8 @@ static std::string fixed(double value, int digits) {
 }
 
 // Measure one scene and print its table row. Speed ratios divide CPU times
-// (robust on a shared machine); throughputs are per wall-clock second.
+// (robust on a shared machine); throughputs are per wall-clock second and
+// per CPU-second.
 static void bench_scene(const std::string& name, const scene_data& scene,
     const bench_options& options) {
   auto base       = trace_params{};
@@ -293,11 +295,14 @@ static void bench_scene(const std::string& name, const scene_data& scene,
   // free cores would give; the wall ratio suffers when the cores are shared).
   auto wall_scaling = one_thread.seconds / two_threads.seconds;
   auto cpu_scaling  = 2 * one_thread.cpu / two_threads.cpu;
-  std::printf("| %s%s | %d | %.1f | %.3f | %.1f | %.4f | %.1f | %s%.1f | %s%.1f "
-              "| %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f | %.2f | %.0f |\n",
+  auto per_cpu = [](const run_result& r) { return r.samples / r.cpu / 1e6; };
+  std::printf("| %s%s | %d | %.1f | %.3f | %.3f | %.1f | %.4f | %.4f | %.1f "
+              "| %s%.1f | %s%.1f | %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f "
+              "| %.2f | %.0f |\n",
       name.c_str(), note.c_str(), (int)fast.objects.size(), build_ms,
-      mrays(fast_camera), evals(fast_camera), mrays(fast_path),
-      evals(fast_path), mark.c_str(), evals(ref_camera), mark.c_str(),
+      mrays(fast_camera), per_cpu(fast_camera), evals(fast_camera),
+      mrays(fast_path), per_cpu(fast_path), evals(fast_path), mark.c_str(),
+      evals(ref_camera), mark.c_str(),
       evals(ref_path), mark.c_str(), ref_camera.cpu / fast_camera.cpu,
       mark.c_str(), ref_path.cpu / fast_path.cpu, equal.c_str(),
       mrays(one_thread), mrays(two_threads), wall_scaling, cpu_scaling,
@@ -375,12 +380,14 @@ int main(int argc, char** argv) {
           tbb::global_control::max_allowed_parallelism),
       load_average().c_str());
   std::printf(
-      "| scene | objects | BVH build ms | camera Mrays/s | evals/camera ray "
-      "| path Msamples/s | evals/path sample | ref evals/camera ray "
+      "| scene | objects | BVH build ms | camera Mrays/s | camera Mrays/CPU-s "
+      "| evals/camera ray | path Msamples/s | path Msamples/CPU-s "
+      "| evals/path sample | ref evals/camera ray "
       "| ref evals/path sample | camera vs ref | path vs ref | normals equal "
       "| path Msamples/s, 1 thread | 2 threads | 2 threads / 1 (wall) "
       "| 2 threads / 1 (CPU) | peak MiB |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---"
+              "|---|---|\n");
   auto ok = true;
   for (auto count : counts) {
     ok &= in_child([&]() {
