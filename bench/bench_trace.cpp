@@ -1,51 +1,195 @@
 // # bench_trace: tracing throughput, accelerated vs the seed's reference mode
 //
-// For each scene: camera rays (implicit_normal, 1 spp) and path tracing
-// (implicit) with the default intersection and with `--accel none`, measured
-// in the same run. Prints Mrays/s, SDF evaluations per ray, the speed ratio,
-// the fraction of implicit_normal pixels equal within 1/255, and peak memory.
+// Scenes: generated clouds of 1, 10, 100, 1,000 and 10,000 random primitives
+// (boxes, spheres, tori, capped cones; rotated, scaled unevenly; seeded) over
+// a floor plane under an area light, plus the scene files given on the command
+// line. For each scene, in one run and each in its own process (so that the
+// peak memory is the scene's): camera rays (implicit_normal, 1 spp) and path
+// tracing (implicit) with the default BVH and with `--accel none`; Mrays/s,
+// path samples/s, SDF evaluations per ray, the speed ratios, the fraction of
+// implicit_normal pixels equal within 1/255, path throughput with 1 and 2
+// threads, and the peak memory. Speed ratios divide CPU times measured in the
+// same run (robust when other processes share the cores); throughputs are
+// per wall-clock second, and per CPU-second (all threads together), which
+// does not depend on what else runs on the machine.
 //
-// Usage: bench_trace [--resolution N] [--samples N] [--skip-reference S] scene.json...
+// The reference is first timed at 1/8 of the resolution; when the full run
+// would take longer than --reference-limit seconds it is skipped, and the
+// ratios come from the low-resolution runs of both modes (marked "~").
+//
+// Usage: bench_trace [--resolution N] [--samples N] [--counts 1,10,...]
+//                    [--seed N] [--reference-limit S] [scene.json...]
 
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <tbb/global_control.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <ctime>
+#include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "math/random.h"
+#include "math/sampling.h"
 #include "scene/scene_io.h"
 #include "trace/trace.h"
 
 using namespace implicit;
 
+// -----------------------------------------------------------------------------
+// GENERATED SCENES
+// -----------------------------------------------------------------------------
+
+// A uniformly random rotation: a random axis frame turned about its z.
+static mat3f random_rotation(rng_state& rng) {
+  auto frame = basis_fromz(sample_sphere(rand2f(rng)));
+  auto angle = 2 * pif * rand1f(rng);
+  auto c = std::cos(angle), s = std::sin(angle);
+  return {frame.x * c + frame.y * s, frame.y * c - frame.x * s, frame.z};
+}
+
+// `count` random primitives in the cube [-5,5]^3, each about a third of the
+// spacing between them (so every count fills the cube alike), over a floor
+// plane, under a square area light, in a sky.
+static scene_data make_random_scene(int count, uint64_t seed) {
+  auto scene = scene_data{};
+  auto rng   = make_rng(seed);
+  for (auto color : {vec3f{0.7f, 0.7f, 0.7f}, vec3f{0.8f, 0.3f, 0.2f},
+           vec3f{0.2f, 0.5f, 0.8f}, vec3f{0.9f, 0.8f, 0.3f}}) {
+    auto material  = material_data{};
+    material.color = color;
+    scene.materials.push_back(material);
+  }
+  scene.materials[2].type      = material_type::glossy;
+  scene.materials[2].roughness = 0.3f;
+  scene.materials[3].type      = material_type::reflective;
+  scene.materials[3].roughness = 0.4f;
+  auto light     = material_data{};
+  light.emission = {30, 30, 30};
+  scene.materials.push_back(light);
+
+  auto spacing = 10 / std::cbrt((float)count);
+  auto size    = 0.35f * spacing * (count == 1 ? 2.0f : 1.0f);
+  for (auto i = 0; i < count; i++) {
+    auto node = sdf_node{};
+    auto half = vec3f{0, 0, 0};  // local centre (boxes have their corner at 0)
+    switch (rand1i(rng, 4)) {
+      case 0:
+        node.type = sdf_type::box;
+        node.size = {1, 1, 1};
+        half      = {0.5f, 0.5f, 0.5f};
+        break;
+      case 1:
+        node.type   = sdf_type::sphere;
+        node.radius = 0.5f;
+        break;
+      case 2:
+        node.type    = sdf_type::torus;
+        node.radius  = 0.38f;
+        node.radius2 = 0.12f;
+        break;
+      default:
+        node.type    = sdf_type::capped_cone;
+        node.height  = 0.5f;
+        node.radius  = 0.5f;
+        node.radius2 = 0.4f * rand1f(rng);
+        break;
+    }
+    auto rotation = random_rotation(rng);
+    auto scale    = vec3f{0.6f + 0.8f * rand1f(rng), 0.6f + 0.8f * rand1f(rng),
+        0.6f + 0.8f * rand1f(rng)} * size;
+    auto position =
+        (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * (10 - size);
+    auto world_from_local = frame3f{rotation.x * scale.x, rotation.y * scale.y,
+        rotation.z * scale.z, {0, 0, 0}};
+    world_from_local.o = position - transform_vector(world_from_local, half);
+    auto function             = sdf_function_data{};
+    function.name             = "object" + std::to_string(i);
+    function.program          = make_primitive_program(node);
+    function.local_from_world = inverse(world_from_local);
+    function.material         = rand1i(rng, 4);
+    scene.sdfunctions.push_back(function);
+  }
+  auto floor                = sdf_function_data{};
+  auto plane                = sdf_node{};
+  plane.type                = sdf_type::plane;
+  floor.name                = "floor";
+  floor.program             = make_primitive_program(plane);
+  floor.local_from_world.o  = {0, 5.5f, 0};  // y = -5.5
+  floor.material            = 0;
+  scene.sdfunctions.push_back(floor);
+  auto lamp                 = sdf_function_data{};
+  auto panel                = sdf_node{};
+  panel.type                = sdf_type::box;
+  panel.size                = {4, 1e-5f, 4};
+  lamp.name                 = "light";
+  lamp.program              = make_primitive_program(panel);
+  lamp.local_from_world.o   = {2, -9, 2};  // corner at (-2, 9, -2)
+  lamp.material             = 4;
+  scene.sdfunctions.push_back(lamp);
+
+  auto sky     = environment_data{};
+  sky.emission = {0.3f, 0.35f, 0.4f};
+  scene.environments.push_back(sky);
+  auto camera   = camera_data{};
+  camera.frame  = lookat_frame({0, 9, 20}, {0, -1, 0}, {0, 1, 0});
+  camera.focus  = 22.4f;
+  camera.aspect = 1.5f;
+  scene.cameras.push_back(camera);
+  return scene;
+}
+
+// -----------------------------------------------------------------------------
+// MEASUREMENT
+// -----------------------------------------------------------------------------
+
 struct run_result {
-  double     seconds     = 0;
-  double     rays        = 0;  // pixel samples traced
+  double     seconds     = 0;  // wall clock
+  double     cpu         = 0;  // process CPU time, all threads
+  double     samples     = 0;  // pixel samples traced
   double     evaluations = 0;
   image_data image       = {};
 };
 
-// Render `samples` passes and measure them.
-static run_result run(const scene_data& scene, trace_params params) {
-  auto accel  = make_accel(scene, params.accel, params.march);
-  auto lights = make_lights(scene, accel);
-  auto state  = make_state(scene, params);
-  auto start  = std::chrono::steady_clock::now();
+// CPU time of the whole process (all threads).
+static double cpu_seconds() {
+  auto now = timespec{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+  return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+}
+
+// Render `params.samples` passes and time them (the accel is built outside).
+static run_result run(const scene_data& scene, const accel_data& accel,
+    const trace_params& params, int threads = 0) {
+  auto control = std::unique_ptr<tbb::global_control>{};
+  if (threads > 0)
+    control = std::make_unique<tbb::global_control>(
+        tbb::global_control::max_allowed_parallelism, (size_t)threads);
+  auto lights    = make_lights(scene, accel);
+  auto state     = make_state(scene, params);
+  auto start     = std::chrono::steady_clock::now();
+  auto cpu_start = cpu_seconds();
   for (auto s = 0; s < params.samples; s++)
     trace_samples(state, scene, accel, lights, params);
   auto result    = run_result{};
+  result.cpu     = cpu_seconds() - cpu_start;
   result.seconds = std::chrono::duration<double>(
       std::chrono::steady_clock::now() - start).count();
-  result.rays = (double)state.width * state.height * params.samples;
+  result.samples = (double)state.width * state.height * params.samples;
   for (auto e : state.evaluations) result.evaluations += (double)e;
   result.image = get_render(state);
   return result;
 }
 
 // Fraction of pixels whose RGBA differ by at most `tolerance` per channel.
-static double equal_fraction(const image_data& a, const image_data& b, float tolerance) {
+static double equal_fraction(
+    const image_data& a, const image_data& b, float tolerance) {
   auto equal = 0;
   for (size_t i = 0; i < a.pixels.size(); i++) {
     auto pa = a.pixels[i], pb = b.pixels[i];
@@ -53,7 +197,7 @@ static double equal_fraction(const image_data& a, const image_data& b, float tol
         std::abs(pa.z - pb.z) <= tolerance && std::abs(pa.w - pb.w) <= tolerance)
       equal++;
   }
-  return (double)equal / a.pixels.size();
+  return a.pixels.empty() ? 1 : (double)equal / a.pixels.size();
 }
 
 static double peak_memory_mib() {
@@ -62,59 +206,202 @@ static double peak_memory_mib() {
   return usage.ru_maxrss / 1024.0;
 }
 
-int main(int argc, char** argv) {
-  auto resolution = 360;
-  auto samples    = 8;
-  auto scenes     = std::vector<std::string>{};
-  for (auto i = 1; i < argc; i++) {
-    auto arg = std::string{argv[i]};
-    if (arg == "--resolution" && i + 1 < argc) resolution = std::atoi(argv[++i]);
-    else if (arg == "--samples" && i + 1 < argc) samples = std::atoi(argv[++i]);
-    else scenes.push_back(arg);
+static double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(
+      std::chrono::steady_clock::now() - start).count();
+}
+
+struct bench_options {
+  int    resolution      = 256;
+  int    samples         = 4;
+  double reference_limit = 60;
+};
+
+// Format helpers for the table.
+static std::string fixed(double value, int digits) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.*f", digits, value);
+  return buffer;
+}
+
+// Measure one scene and print its table row. Speed ratios divide CPU times
+// (robust on a shared machine); throughputs are per wall-clock second and
+// per CPU-second.
+static void bench_scene(const std::string& name, const scene_data& scene,
+    const bench_options& options) {
+  auto base       = trace_params{};
+  base.resolution = options.resolution;
+  base.camera     = find_camera(scene, "");
+  auto camera     = base;
+  camera.shader   = shader_type::implicit_normal;
+  camera.samples  = 1;
+  auto path       = base;
+  path.samples    = options.samples;
+
+  auto build_start = std::chrono::steady_clock::now();
+  auto fast        = make_accel(scene, accel_type::bvh, base.march);
+  auto build_ms    = seconds_since(build_start) * 1000;
+  auto slow        = make_accel(scene, accel_type::none, base.march);
+
+  // Warm up the thread pool and the caches.
+  auto low_camera       = camera;
+  auto low_path         = path;
+  low_camera.resolution = std::max(8, options.resolution / 8);
+  low_path.resolution   = low_camera.resolution;
+  low_path.samples      = 1;
+  run(scene, fast, low_path);
+
+  auto fast_camera = run(scene, fast, camera);
+  auto fast_path   = run(scene, fast, path);
+  auto one_thread  = run(scene, fast, path, 1);
+  auto two_threads = run(scene, fast, path, 2);
+
+  // Reference: time it at 1/8 of the resolution first.
+  auto low_ref_camera = run(scene, slow, low_camera);
+  auto low_ref_path   = run(scene, slow, low_path);
+  auto estimate =
+      low_ref_camera.seconds / low_ref_camera.samples * fast_camera.samples +
+      low_ref_path.seconds / low_ref_path.samples * fast_path.samples;
+  auto ref_camera = run_result{}, ref_path = run_result{};
+  auto skipped    = estimate > options.reference_limit;
+  auto equal      = std::string{"-"};
+  if (!skipped) {
+    ref_camera = run(scene, slow, camera);
+    ref_path   = run(scene, slow, path);
+    equal = fixed(100 * equal_fraction(fast_camera.image, ref_camera.image,
+                            1 / 255.0f), 2) + "%";
+  } else {
+    // Compare like with like: the BVH at the same low resolution, scaled to
+    // the full run through the low-resolution ratio.
+    auto low_fast_camera = run(scene, fast, low_camera);
+    auto low_fast_path   = run(scene, fast, low_path);
+    auto scale_to = [](run_result ref, const run_result& low_fast,
+                        const run_result& fast_run) {
+      ref.seconds = ref.seconds / low_fast.seconds * fast_run.seconds;
+      ref.cpu     = ref.cpu / low_fast.cpu * fast_run.cpu;
+      ref.evaluations *= fast_run.samples / ref.samples;
+      ref.samples = fast_run.samples;
+      return ref;
+    };
+    ref_camera = scale_to(low_ref_camera, low_fast_camera, fast_camera);
+    ref_path   = scale_to(low_ref_path, low_fast_path, fast_path);
   }
-  if (scenes.empty()) {
-    std::fprintf(stderr, "usage: bench_trace [--resolution N] [--samples N] scene.json...\n");
-    return 1;
-  }
-  std::printf("| scene | mode | camera Mrays/s | evals/camera ray | path samples/s | evals/path sample | speedup camera | speedup path | normal image equal |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|\n");
-  for (auto& filename : scenes) {
-    auto scene = scene_data{};
+  auto mrays = [](const run_result& r) { return r.samples / r.seconds / 1e6; };
+  auto evals = [](const run_result& r) { return r.evaluations / r.samples; };
+  auto mark  = skipped ? std::string{"~"} : std::string{""};
+  auto note  = skipped ? " (reference est. " + fixed(estimate, 0) + " s: skipped)"
+                       : std::string{""};
+  // Two threads against one: wall clock, and CPU time per sample (what two
+  // free cores would give; the wall ratio suffers when the cores are shared).
+  auto wall_scaling = one_thread.seconds / two_threads.seconds;
+  auto cpu_scaling  = 2 * one_thread.cpu / two_threads.cpu;
+  auto per_cpu = [](const run_result& r) { return r.samples / r.cpu / 1e6; };
+  std::printf("| %s%s | %d | %.1f | %.3f | %.3f | %.1f | %.4f | %.4f | %.1f "
+              "| %s%.1f | %s%.1f | %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f "
+              "| %.2f | %.0f |\n",
+      name.c_str(), note.c_str(), (int)fast.objects.size(), build_ms,
+      mrays(fast_camera), per_cpu(fast_camera), evals(fast_camera),
+      mrays(fast_path), per_cpu(fast_path), evals(fast_path), mark.c_str(),
+      evals(ref_camera), mark.c_str(),
+      evals(ref_path), mark.c_str(), ref_camera.cpu / fast_camera.cpu,
+      mark.c_str(), ref_path.cpu / fast_path.cpu, equal.c_str(),
+      mrays(one_thread), mrays(two_threads), wall_scaling, cpu_scaling,
+      peak_memory_mib());
+  std::fflush(stdout);
+}
+
+// Run `work` in a child process, so that its peak memory is its own.
+template <typename Work>
+static bool in_child(const Work& work) {
+  std::fflush(stdout);
+  auto pid = fork();
+  if (pid == 0) {
+    auto code = 0;
     try {
-      scene = load_scene(filename);
+      work();
     } catch (const std::exception& error) {
       std::fprintf(stderr, "bench_trace: %s\n", error.what());
+      code = 1;
+    }
+    std::fflush(stdout);
+    _exit(code);
+  }
+  auto status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
+static std::string load_average() {
+  auto file = std::ifstream{"/proc/loadavg"};
+  auto a = std::string{}, b = std::string{}, c = std::string{};
+  file >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
+
+int main(int argc, char** argv) {
+  auto options = bench_options{};
+  auto counts  = std::vector<int>{1, 10, 100, 1000, 10000};
+  auto seed    = (uint64_t)7;
+  auto scenes  = std::vector<std::string>{};
+  for (auto i = 1; i < argc; i++) {
+    auto arg  = std::string{argv[i]};
+    auto next = [&]() { return i + 1 < argc ? std::string{argv[++i]} : ""; };
+    if (arg == "--resolution") {
+      options.resolution = std::atoi(next().c_str());
+    } else if (arg == "--samples") {
+      options.samples = std::atoi(next().c_str());
+    } else if (arg == "--reference-limit") {
+      options.reference_limit = std::atof(next().c_str());
+    } else if (arg == "--seed") {
+      seed = (uint64_t)std::atoll(next().c_str());
+    } else if (arg == "--counts") {
+      counts.clear();
+      auto list = next();
+      for (size_t pos = 0; pos < list.size();) {
+        auto comma = list.find(',', pos);
+        if (comma == std::string::npos) comma = list.size();
+        if (comma > pos)
+          counts.push_back(std::atoi(list.substr(pos, comma - pos).c_str()));
+        pos = comma + 1;
+      }
+    } else if (arg.rfind("--", 0) == 0) {
+      std::fprintf(stderr,
+          "usage: bench_trace [--resolution N] [--samples N] [--counts 1,10,...] "
+          "[--seed N] [--reference-limit S] [scene.json...]\n");
       return 1;
-    }
-    auto base       = trace_params{};
-    base.resolution = resolution;
-    base.camera     = find_camera(scene, "");
-    auto results    = std::vector<std::pair<run_result, run_result>>{};
-    for (auto accel : {accel_type::bvh, accel_type::none}) {
-      auto camera    = base;
-      camera.accel   = accel;
-      camera.shader  = shader_type::implicit_normal;
-      camera.samples = 1;
-      auto path      = base;
-      path.accel     = accel;
-      path.samples   = samples;
-      results.push_back({run(scene, camera), run(scene, path)});
-    }
-    auto& fast = results[0];
-    auto& slow = results[1];
-    auto  same = equal_fraction(fast.first.image, slow.first.image, 1 / 255.0f);
-    for (auto m = 0; m < 2; m++) {
-      auto& r = results[m];
-      std::printf("| %s | %s | %.3f | %.1f | %.0f | %.1f | %s | %s | %s |\n",
-          filename.c_str(), m == 0 ? "bvh" : "none (seed)",
-          r.first.rays / r.first.seconds / 1e6,
-          r.first.evaluations / r.first.rays, r.second.rays / r.second.seconds,
-          r.second.evaluations / r.second.rays,
-          m == 0 ? std::to_string((slow.first.seconds / fast.first.seconds)).substr(0, 5).c_str() : "1",
-          m == 0 ? std::to_string((slow.second.seconds / fast.second.seconds)).substr(0, 5).c_str() : "1",
-          m == 0 ? (std::to_string(same * 100).substr(0, 6) + "%").c_str() : "-");
+    } else {
+      scenes.push_back(arg);
     }
   }
-  std::printf("\npeak memory: %.1f MiB\n", peak_memory_mib());
-  return 0;
+  std::printf("resolution %d, path tracing %d spp (4 bounces), camera rays 1 spp "
+              "implicit_normal; %d hardware threads; load average %s\n\n",
+      options.resolution, options.samples,
+      (int)tbb::global_control::active_value(
+          tbb::global_control::max_allowed_parallelism),
+      load_average().c_str());
+  std::printf(
+      "| scene | objects | BVH build ms | camera Mrays/s | camera Mrays/CPU-s "
+      "| evals/camera ray | path Msamples/s | path Msamples/CPU-s "
+      "| evals/path sample | ref evals/camera ray "
+      "| ref evals/path sample | camera vs ref | path vs ref | normals equal "
+      "| path Msamples/s, 1 thread | 2 threads | 2 threads / 1 (wall) "
+      "| 2 threads / 1 (CPU) | peak MiB |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---"
+              "|---|---|\n");
+  auto ok = true;
+  for (auto count : counts) {
+    ok &= in_child([&]() {
+      auto scene = make_random_scene(count, seed);
+      bench_scene("random " + std::to_string(count), scene, options);
+    });
+  }
+  for (auto& filename : scenes) {
+    ok &= in_child([&]() {
+      auto scene = load_scene(filename);
+      add_missing_camera(scene, make_accel(scene, accel_type::none, {}).bounds);
+      bench_scene(filename, scene, options);
+    });
+  }
+  std::printf("\nload average after: %s\n", load_average().c_str());
+  return ok ? 0 : 1;
 }

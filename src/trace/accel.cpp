@@ -2,8 +2,11 @@
 
 #include "accel.h"
 
+#include "../sdf/sdf_primitives.h"
 #include "../util/error.h"
+#include "accel_embree.h"
 #include "sphere_trace.h"
+
 
 namespace implicit {
 
@@ -80,6 +83,28 @@ accel_data make_accel(
   }
   accel.size    = is_empty(accel.bounds) ? 1 : std::max(length(size(accel.bounds)), 1e-6f);
   accel.hit_min = accel.march.scene_epsilon * accel.size;
+  // Local boxes are padded by the world padding mapped to local units (the
+  // largest stretch of local_from_world).
+  auto padding = object_box_padding(accel);
+  for (auto& object : accel.objects)
+    object.local_padding = padding * max_stretch(object.local_from_world);
+  // Objects with finite boxes go into the BVH, the others beside it; empty
+  // boxes (an intersection of disjoint shapes) can never be hit.
+  for (auto i = 0; i < (int)accel.objects.size(); i++) {
+    auto& box = accel.objects[i].world_bounds;
+    if (is_empty(box) || box.min.y > box.max.y || box.min.z > box.max.z) continue;
+    if (is_finite(box)) {
+      accel.bounded.push_back(i);
+    } else {
+      accel.unbounded.push_back(i);
+    }
+  }
+  for (auto index : accel.bounded)
+    accel.bounded_boxes.push_back(
+        expand(accel.objects[index].world_bounds, padding));
+  auto linear_max = std::min(accel.march.linear_max, linear_max_objects);
+  if (type == accel_type::bvh && (int)accel.bounded.size() > linear_max)
+    accel.bvh = make_embree_bvh(accel);
   return accel;
 }
 
@@ -121,31 +146,88 @@ vec3f eval_object_normal(const trace_object& object, vec3f p_world, float step) 
       break;
     }
   }
-  // Gradients are covectors: world = transpose(L) * local.
-  return normalize(transform_normal(object.world_from_local, local));
+  // Gradients are covectors: world = transpose(local_from_world) * local.
+  return normalize(transpose(rotation(object.local_from_world)) * local);
 }
 
 // -----------------------------------------------------------------------------
 // INTERSECTION
 // -----------------------------------------------------------------------------
 
-// Hit of one object in [t0, t1] (already clipped to its box).
-static scene_intersection intersect_object_in(const accel_data& accel,
-    int index, const ray3f& ray, float t0, float t1) {
+// March a ray in an object's space with the local distance `eval`, chosen
+// once per ray so that the loop inlines it.
+template <typename Eval>
+static march_result march_local(const accel_data& accel, const Eval& eval,
+    const ray3f& local, float scale, float t0, float t1, float cutoff) {
+  auto distance = [&](float t) { return eval(ray_point(local, t)) * scale; };
+  return sphere_trace(distance, t0, t1, cutoff, accel.march, accel.hit_min);
+}
+
+// March one object: single primitives get their own loop (no switch per
+// step), CSG programs, grids and user functions the general evaluation.
+static march_result march_object(const accel_data& accel,
+    const trace_object& object, const ray3f& local, float t0, float t1,
+    float cutoff) {
+  auto scale = object.distance_scale;
+  auto march = [&](const auto& eval) {
+    return march_local(accel, eval, local, scale, t0, t1, cutoff);
+  };
+  switch (object.kind) {
+    case object_kind::function: {
+      auto& program = *object.program;
+      if (program.nodes.size() == 1) {
+        auto& node = program.nodes[0];
+        auto  size = node.size;
+        auto  r1 = node.radius, r2 = node.radius2, h = node.height;
+        switch (node.type) {
+          case sdf_type::torus:
+            return march([=](vec3f p) { return sd_torus(p, r1, r2); });
+          case sdf_type::capped_cone:
+            return march([=](vec3f p) { return sd_capped_cone(p, h, r1, r2); });
+          case sdf_type::bbox: {
+            auto thickness = node.thickness;
+            return march(
+                [=](vec3f p) { return sd_box_frame(p, size, thickness); });
+          }
+          case sdf_type::capsule:
+            return march([=](vec3f p) { return sd_capsule(p, h, r1); });
+          case sdf_type::cylinder:
+            return march([=](vec3f p) { return sd_cylinder(p, h, r1); });
+          case sdf_type::rounded_box:
+            return march([=](vec3f p) { return sd_rounded_box(p, size, r1); });
+          case sdf_type::ellipsoid:
+            return march([=](vec3f p) { return sd_ellipsoid(p, size); });
+          case sdf_type::octahedron:
+            return march([=](vec3f p) { return sd_octahedron(p, r1); });
+          default: break;
+        }
+      }
+      return march([&](vec3f p) { return eval_sdf(program, p); });
+    }
+    case object_kind::grid: {
+      auto& grid = *object.grid;
+      return march([&](vec3f p) { return eval_grid(grid, p); });
+    }
+    case object_kind::user: {
+      auto& eval = object.user->eval;
+      return march([&](vec3f p) { return eval(p); });
+    }
+  }
+  return {};
+}
+
+scene_intersection intersect_object(
+    const accel_data& accel, int index, const ray3f& ray, float cutoff) {
   auto& object = accel.objects[index];
   auto  isec   = scene_intersection{};
-  auto  local  = transform_ray(object.local_from_world, ray);
-  local.tmin   = t0;
-  local.tmax   = t1;
-  if (object.exact) {
+  // In the object's space t keeps its meaning (the direction is not
+  // renormalized), and its own box is tighter than the world box.
+  auto local = transform_ray(object.local_from_world, ray);
+  if (object.exact && object.kind == object_kind::function) {
     auto hit = false;
     auto t   = 0.0f;
-    if (object.kind == object_kind::grid) {
-      hit = intersect_grid(*object.grid, local, t, isec.evaluations);
-    } else {
-      intersect_sdf_exact(*object.program, local, hit, t);
-      isec.evaluations = 1;
-    }
+    intersect_sdf_exact(*object.program, local, hit, t);
+    isec.evaluations = 1;
     if (hit) {
       isec.hit      = true;
       isec.object   = index;
@@ -154,10 +236,22 @@ static scene_intersection intersect_object_in(const accel_data& accel,
     }
     return isec;
   }
-  auto distance = [&](float t) {
-    return eval_local(object, ray_point(local, t)) * object.distance_scale;
-  };
-  auto march = sphere_trace(distance, t0, t1, accel.march, accel.hit_min);
+  auto t0 = 0.0f, t1 = 0.0f;
+  auto box = expand(object.local_bounds, object.local_padding);
+  if (!intersect_bbox(local, box, t0, t1) || t0 > cutoff) return isec;
+  if (object.exact) {
+    local.tmin = t0;
+    local.tmax = t1;
+    auto t     = 0.0f;
+    if (intersect_grid(*object.grid, local, t, isec.evaluations)) {
+      isec.hit      = true;
+      isec.object   = index;
+      isec.distance = t;
+      isec.epsilon  = hit_epsilon(accel, t);
+    }
+    return isec;
+  }
+  auto march       = march_object(accel, object, local, t0, t1, cutoff);
   isec.evaluations = march.evaluations;
   if (march.hit) {
     isec.hit      = true;
@@ -166,22 +260,6 @@ static scene_intersection intersect_object_in(const accel_data& accel,
     isec.epsilon  = march.epsilon;
   }
   return isec;
-}
-
-// Box interval of an object along the ray, padded so that surfaces lying on
-// the box are not clipped by rounding.
-static bool object_interval(const accel_data& accel, const trace_object& object,
-    const ray3f& ray, float& t0, float& t1) {
-  auto pad = accel.hit_min + accel.march.hit_relative * 1e-3f;
-  auto box = expand(object.world_bounds, pad);
-  return intersect_bbox(ray, box, t0, t1);
-}
-
-scene_intersection intersect_object(
-    const accel_data& accel, int index, const ray3f& ray) {
-  auto t0 = 0.0f, t1 = 0.0f;
-  if (!object_interval(accel, accel.objects[index], ray, t0, t1)) return {};
-  return intersect_object_in(accel, index, ray, t0, t1);
 }
 
 // The seed's loop: the minimum of all objects' distances at every step.
@@ -205,7 +283,11 @@ static scene_intersection intersect_reference(
   auto t0 = 0.0f, t1 = 0.0f;
   if (!intersect_bbox(ray, expand(accel.extent, accel.hit_min), t0, t1))
     return {};
-  auto march = sphere_trace(distance, ray.tmin, t1, accel.march, accel.hit_min);
+  // The reference keeps Keinert's fixed over-relaxation.
+  auto params   = accel.march;
+  params.planar = 0;
+  auto march    = sphere_trace(
+      distance, ray.tmin, t1, flt_max, params, accel.hit_min);
   auto isec        = scene_intersection{};
   isec.evaluations = march.evaluations * (int)accel.objects.size();
   if (march.hit) {
@@ -218,25 +300,99 @@ static scene_intersection intersect_reference(
   return isec;
 }
 
-scene_intersection intersect_scene(const accel_data& accel, const ray3f& ray) {
-  if (accel.type == accel_type::none) return intersect_reference(accel, ray);
-  auto best        = scene_intersection{};
-  auto tmax        = ray.tmax;
-  auto evaluations = 0;
-  for (auto i = 0; i < (int)accel.objects.size(); i++) {
-    auto clipped = ray;
-    clipped.tmax = tmax;
-    auto t0 = 0.0f, t1 = 0.0f;
-    if (!object_interval(accel, accel.objects[i], clipped, t0, t1)) continue;
-    auto isec = intersect_object_in(accel, i, ray, t0, t1);
-    evaluations += isec.evaluations;
-    if (isec.hit && isec.distance < tmax) {
-      best = isec;
-      tmax = isec.distance;
+// Whether `isec` replaces `best`: closer, or as close with a lower index.
+static bool is_closer(const scene_intersection& isec, const scene_intersection& best) {
+  if (!isec.hit) return false;
+  if (!best.hit) return true;
+  return isec.distance < best.distance ||
+         (isec.distance == best.distance && isec.object < best.object);
+}
+
+// Whether the bounded objects go through the BVH (else a loop).
+static bool uses_bvh(const accel_data& accel) { return accel.bvh.scene; }
+
+// Entry distance of a ray into a box given the inverse direction (infinite
+// for zero components); false if the ray misses it in [tmin, tmax]. NaN-safe
+// like intersect_bbox(): a ray lying in a slab's plane keeps its interval.
+static bool enter_bbox(
+    const ray3f& ray, vec3f inverse, const bbox3f& box, float& t0) {
+  auto t1 = ray.tmax;
+  t0      = ray.tmin;
+  for (auto a = 0; a < 3; a++) {
+    auto o  = at(ray.o, a);
+    auto ta = (at(box.min, a) - o) * at(inverse, a);
+    auto tb = (at(box.max, a) - o) * at(inverse, a);
+    if (ta > tb) std::swap(ta, tb);
+    t0 = ta > t0 ? ta : t0;
+    t1 = tb < t1 ? tb : t1;
+  }
+  return t0 <= t1;
+}
+
+// Few bounded objects: test their boxes in a loop and visit the crossed ones
+// nearest first, which is what the BVH does, without its per-ray cost. The
+// result is the same: each object's march ignores the visiting order.
+static scene_intersection intersect_linear(
+    const accel_data& accel, const ray3f& ray) {
+  auto inverse = vec3f{1 / ray.d.x, 1 / ray.d.y, 1 / ray.d.z};
+  float entries[linear_max_objects];
+  int   indices[linear_max_objects];
+  auto  count = 0;
+  for (auto k = 0; k < (int)accel.bounded.size(); k++) {
+    auto t0 = 0.0f;
+    if (!enter_bbox(ray, inverse, accel.bounded_boxes[k], t0)) continue;
+    // Insertion sort by entry distance.
+    auto slot = count++;
+    for (; slot > 0 && entries[slot - 1] > t0; slot--) {
+      entries[slot] = entries[slot - 1];
+      indices[slot] = indices[slot - 1];
     }
+    entries[slot] = t0;
+    indices[slot] = accel.bounded[k];
+  }
+  auto best        = scene_intersection{};
+  auto evaluations = 0;
+  for (auto k = 0; k < count && entries[k] <= best.distance; k++) {
+    auto isec = intersect_object(accel, indices[k], ray, best.distance);
+    evaluations += isec.evaluations;
+    if (is_closer(isec, best)) best = isec;
   }
   best.evaluations = evaluations;
   return best;
+}
+
+// Whether any of few bounded objects is hit.
+static bool intersect_linear_any(const accel_data& accel, const ray3f& ray) {
+  auto inverse = vec3f{1 / ray.d.x, 1 / ray.d.y, 1 / ray.d.z};
+  for (auto k = 0; k < (int)accel.bounded.size(); k++) {
+    auto t0 = 0.0f;
+    if (!enter_bbox(ray, inverse, accel.bounded_boxes[k], t0)) continue;
+    if (intersect_object(accel, accel.bounded[k], ray, ray.tmax).hit) return true;
+  }
+  return false;
+}
+
+scene_intersection intersect_scene(const accel_data& accel, const ray3f& ray) {
+  if (accel.type == accel_type::none) return intersect_reference(accel, ray);
+  auto best = uses_bvh(accel) ? intersect_embree(accel, ray)
+                              : intersect_linear(accel, ray);
+  for (auto index : accel.unbounded) {
+    auto isec = intersect_object(accel, index, ray, best.distance);
+    best.evaluations += isec.evaluations;
+    if (is_closer(isec, best)) {
+      isec.evaluations = best.evaluations;
+      best             = isec;
+    }
+  }
+  return best;
+}
+
+bool intersect_scene_any(const accel_data& accel, const ray3f& ray) {
+  if (accel.type == accel_type::none) return intersect_reference(accel, ray).hit;
+  for (auto index : accel.unbounded)
+    if (intersect_object(accel, index, ray, ray.tmax).hit) return true;
+  return uses_bvh(accel) ? intersect_embree_any(accel, ray)
+                         : intersect_linear_any(accel, ray);
 }
 
 }  // namespace implicit

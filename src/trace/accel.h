@@ -2,16 +2,32 @@
 //
 // Every implicit object of the scene (SDF program, grid instance, user SDF)
 // becomes a trace_object with its world bounds and the maps to its own space.
-// intersect_scene() finds the closest hit: the default (`bvh`) visits only
-// the objects whose boxes the ray crosses, nearest first, and marches each in
-// its own space inside its box; the reference (`none`) reproduces the seed's
-// loop, the minimum over all objects at every step.
+// intersect_scene() finds the closest hit: the default (`bvh`) puts every
+// bounded object in an Embree BVH as one user primitive (scenes with a few
+// objects use a loop over their boxes, sorted by entry, instead), so a ray
+// visits only the objects whose world boxes it crosses, and solves in closed
+// form (sphere, box, plane) or marches each in its own space, inside its own
+// box; unbounded objects (planes) are tested beside the BVH. The reference
+// (`none`) reproduces the seed's loop, the minimum over all objects at every
+// step.
+//
+// The accelerated result does not depend on the order in which the BVH
+// visits the objects: each object's hit is what its own march over its whole
+// box interval gives (a march stops early only when everything it could
+// still find lies beyond the closest hit so far), and equal distances go to
+// the lower object index. So it equals the minimum over all objects of
+// intersect_object(), and it is the same at any thread count.
 #pragma once
 
 #include <string>
 #include <vector>
 
 #include "../scene/scene.h"
+
+// Embree's handle types (rtcore_device.h, rtcore_geometry.h), declared here so
+// that only the implementation includes Embree.
+struct RTCDeviceTy;
+struct RTCSceneTy;
 
 namespace implicit {
 
@@ -30,8 +46,13 @@ struct march_params {
   float hit_relative   = 1e-5f;  // fraction of the distance travelled
   float scene_epsilon  = 1e-6f;  // fraction of the scene size
   float overrelax      = 1.6f;   // Keinert et al. 2014 (1 disables)
+  float planar         = 0.9f;   // Balint & Valasek 2018, replaces the
+                                 // above when > 0; the reference mode
+                                 // keeps Keinert's steps
   float fallback       = 2;      // closest approach within this many
                                  // thresholds counts as a hit
+  int   linear_max     = 8;      // up to this many bounded objects are
+                                 // tested in a loop, not through the BVH
 };
 
 // -----------------------------------------------------------------------------
@@ -53,22 +74,47 @@ struct trace_object {
   float                distance_scale   = 1;
   bbox3f               local_bounds     = {};
   bbox3f               world_bounds     = {};
+  float                local_padding    = 0;  // box padding, local units
   bool                 exact            = false;  // closed-form intersection
   const sdf_program*   program          = nullptr;
   const grid_data*     grid             = nullptr;
   const user_sdf_data* user             = nullptr;
 };
 
-// The objects and what the tracer needs to know about the whole scene.
-struct accel_data {
-  accel_type                type    = accel_type::bvh;
-  std::vector<trace_object> objects = {};
-  bbox3f                    bounds  = {};  // finite bounds of all objects
-  bbox3f                    extent  = {};  // all bounds, maybe infinite
-  float                     size    = 1;   // diagonal of bounds
-  float                     hit_min = 1e-6f;
-  march_params              march   = {};
+// Owner of an Embree device and scene. Move-only: the handles are released
+// once, by the destructor of the last owner.
+struct embree_bvh {
+  RTCDeviceTy* device = nullptr;
+  RTCSceneTy*  scene  = nullptr;
+
+  embree_bvh() = default;
+  embree_bvh(const embree_bvh&) = delete;
+  embree_bvh& operator=(const embree_bvh&) = delete;
+  embree_bvh(embree_bvh&& other) noexcept;
+  embree_bvh& operator=(embree_bvh&& other) noexcept;
+  ~embree_bvh();
 };
+
+// The objects and what the tracer needs to know about the whole scene.
+// Move-only (it owns the BVH); objects must not change after make_accel().
+struct accel_data {
+  accel_type                type      = accel_type::bvh;
+  std::vector<trace_object> objects   = {};
+  bbox3f                    bounds    = {};  // finite bounds of all objects
+  bbox3f                    extent    = {};  // all bounds, maybe infinite
+  float                     size      = 1;   // diagonal of bounds
+  float                     hit_min   = 1e-6f;
+  march_params              march     = {};
+  std::vector<int>          bounded   = {};  // BVH primitive -> object
+  std::vector<bbox3f>       bounded_boxes = {};  // their padded world boxes
+  std::vector<int>          unbounded = {};  // objects tested beside the BVH
+  embree_bvh                bvh       = {};  // see march_params::linear_max
+};
+
+// Most bounded objects that intersect_scene() may test in a loop, sorted by
+// box entry, rather than through the BVH (whose per-ray cost is higher for
+// few objects); march_params::linear_max picks the number up to this.
+inline constexpr int linear_max_objects = 16;
 
 // Build the objects of a scene. The scene must outlive the result.
 accel_data make_accel(
@@ -87,11 +133,18 @@ struct scene_intersection {
 };
 
 // Closest hit along a ray with unit direction in [ray.tmin, ray.tmax].
+// Thread-safe; allocates nothing.
 scene_intersection intersect_scene(const accel_data& accel, const ray3f& ray);
 
-// Closest hit with one object only.
-scene_intersection intersect_object(
-    const accel_data& accel, int object, const ray3f& ray);
+// Whether anything is hit in [ray.tmin, ray.tmax] (shadow rays): stops at the
+// first hit found. Always equal to intersect_scene(accel, ray).hit.
+bool intersect_scene_any(const accel_data& accel, const ray3f& ray);
+
+// Closest hit with one object only, marching its whole box interval. The
+// march may give up, reporting no hit, once it is sure that its hit (if any)
+// lies beyond `cutoff`; hits at or before `cutoff` are always the same.
+scene_intersection intersect_object(const accel_data& accel, int object,
+    const ray3f& ray, float cutoff = flt_max);
 
 // Signed distance bound of one object at a world point (world units).
 float eval_object_distance(const trace_object& object, vec3f p_world);

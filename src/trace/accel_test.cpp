@@ -1,12 +1,20 @@
 // Tests for ray-scene intersection: hits and misses on known geometry,
-// grazing rays, rays from inside, both intersection modes, no self-hits.
+// grazing rays, rays from inside, both intersection modes, no self-hits; the
+// Embree BVH against the minimum over objects, the sorted loop and the
+// reference mode on random scenes; shadow queries against closest hits.
 
 #include "accel.h"
 
 #include <doctest/doctest.h>
+#include <tbb/parallel_for.h>
+
+#include <utility>
 
 #include "../math/random.h"
 #include "../math/sampling.h"
+#include "../sdf/sdf_primitives.h"
+#include "sphere_trace.h"
+#include "trace.h"
 
 using namespace implicit;
 
@@ -50,6 +58,7 @@ TEST_CASE("accel: hits and misses on known geometry") {
   auto scene = make_test_scene();
   for (auto type : {accel_type::bvh, accel_type::none}) {
     auto accel = make_accel(scene, type, {});
+    CHECK(accel.unbounded.empty());
     // Sphere straight on (exact in bvh mode, marched in the reference).
     auto isec = intersect_scene(accel, {{0, 0, -5}, {0, 0, 1}});
     REQUIRE(isec.hit);
@@ -149,4 +158,468 @@ TEST_CASE("accel: world bounds of rotated and scaled objects") {
   auto isec = intersect_scene(accel, {{0, 0.5f, -3}, {0, 0, 1}});
   REQUIRE(isec.hit);
   CHECK(isec.distance == doctest::Approx(2.625f).epsilon(2e-3));
+}
+
+// -----------------------------------------------------------------------------
+// RANDOM SCENES
+// -----------------------------------------------------------------------------
+
+// `count` random boxes, spheres, tori and capped cones in [-4,4]^3, rotated
+// and scaled unevenly (so distance bounds are not exact), over a floor plane.
+static scene_data make_random_scene(int count, uint64_t seed, bool floor = true) {
+  auto scene = scene_data{};
+  auto rng   = make_rng(seed);
+  scene.materials.push_back({});
+  for (auto i = 0; i < count; i++) {
+    auto node = sdf_node{};
+    auto half = vec3f{0, 0, 0};
+    switch (i % 4) {
+      case 0:
+        node.type = sdf_type::box;
+        node.size = {1, 0.6f, 0.8f};
+        half      = node.size * 0.5f;
+        break;
+      case 1:
+        node.type   = sdf_type::sphere;
+        node.radius = 0.5f;
+        break;
+      case 2:
+        node.type    = sdf_type::torus;
+        node.radius  = 0.4f;
+        node.radius2 = 0.12f;
+        break;
+      default:
+        node.type    = sdf_type::capped_cone;
+        node.height  = 0.5f;
+        node.radius  = 0.5f;
+        node.radius2 = 0.4f * rand1f(rng);
+        break;
+    }
+    auto axes  = basis_fromz(sample_sphere(rand2f(rng)));
+    auto scale = vec3f{0.6f + 0.8f * rand1f(rng), 0.6f + 0.8f * rand1f(rng),
+        0.6f + 0.8f * rand1f(rng)} * 1.5f;
+    auto world_from_local = frame3f{
+        axes.x * scale.x, axes.y * scale.y, axes.z * scale.z, {0, 0, 0}};
+    auto center = (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 8;
+    world_from_local.o = center - transform_vector(world_from_local, half);
+    auto function             = sdf_function_data{};
+    function.program          = make_primitive_program(node);
+    function.local_from_world = inverse(world_from_local);
+    function.material         = 0;
+    scene.sdfunctions.push_back(function);
+  }
+  if (floor) {
+    auto plane = sdf_node{};
+    plane.type = sdf_type::plane;
+    scene.sdfunctions.push_back(make_function(plane, {0, -4.5f, 0}));
+  }
+  return scene;
+}
+
+// Rays from outside aimed into the scene, and rays from random points in it
+// (some inside objects) in random directions.
+static std::vector<ray3f> make_random_rays(int count, uint64_t seed) {
+  auto rng  = make_rng(seed);
+  auto rays = std::vector<ray3f>{};
+  for (auto k = 0; k < count; k++) {
+    auto target = (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 9;
+    if (k % 2 == 0) {
+      auto origin = sample_sphere(rand2f(rng)) * 15;
+      rays.push_back({origin, normalize(target - origin)});
+    } else {
+      rays.push_back({target, sample_sphere(rand2f(rng))});
+    }
+  }
+  return rays;
+}
+
+// Accel options: `linear_max` 0 sends every scene through the Embree BVH.
+static march_params bvh_params(int linear_max) {
+  auto params       = march_params{};
+  params.linear_max = linear_max;
+  return params;
+}
+
+// The closest hit as the minimum of intersect_object() over all objects,
+// equal distances going to the lower index.
+static scene_intersection intersect_all(const accel_data& accel, const ray3f& ray) {
+  auto best = scene_intersection{};
+  for (auto i = 0; i < (int)accel.objects.size(); i++) {
+    auto isec = intersect_object(accel, i, ray);
+    if (isec.hit && (!best.hit || isec.distance < best.distance)) best = isec;
+  }
+  return best;
+}
+
+// -----------------------------------------------------------------------------
+// BVH, LOOP AND REFERENCE
+// -----------------------------------------------------------------------------
+
+TEST_CASE("accel: BVH hits equal the minimum over all objects") {
+  auto scene = make_random_scene(60, 1);
+  auto accel = make_accel(scene, accel_type::bvh, bvh_params(0));
+  REQUIRE(accel.bvh.scene != nullptr);
+  CHECK(accel.bounded.size() == 60);
+  CHECK(accel.unbounded == std::vector<int>{60});
+  auto rays = make_random_rays(4000, 2);
+  auto hits = 0;
+  for (auto& ray : rays) {
+    auto isec     = intersect_scene(accel, ray);
+    auto expected = intersect_all(accel, ray);
+    REQUIRE(isec.hit == expected.hit);
+    if (!isec.hit) continue;
+    hits++;
+    // Exactly equal: each object's march ignores the visiting order.
+    CHECK(isec.object == expected.object);
+    CHECK(isec.distance == expected.distance);
+    CHECK(isec.epsilon == expected.epsilon);
+  }
+  CHECK(hits > 2000);
+}
+
+TEST_CASE("accel: sorted loop and BVH give the same hits") {
+  // 12 objects: under linear_max_objects, so both paths apply.
+  auto scene  = make_random_scene(12, 3);
+  auto loop   = make_accel(scene, accel_type::bvh, bvh_params(16));
+  auto bvh    = make_accel(scene, accel_type::bvh, bvh_params(0));
+  CHECK(loop.bvh.scene == nullptr);
+  CHECK(bvh.bvh.scene != nullptr);
+  for (auto& ray : make_random_rays(3000, 4)) {
+    auto a = intersect_scene(loop, ray), b = intersect_scene(bvh, ray);
+    REQUIRE(a.hit == b.hit);
+    CHECK(a.object == b.object);
+    CHECK(a.distance == b.distance);
+  }
+}
+
+TEST_CASE("accel: BVH is thread-safe and deterministic") {
+  auto scene  = make_random_scene(200, 5);
+  auto accel  = make_accel(scene, accel_type::bvh, bvh_params(0));
+  auto again  = make_accel(scene, accel_type::bvh, bvh_params(0));
+  auto rays   = make_random_rays(4000, 6);
+  auto serial = std::vector<scene_intersection>{};
+  for (auto& ray : rays) serial.push_back(intersect_scene(accel, ray));
+  auto parallel = std::vector<scene_intersection>(rays.size());
+  tbb::parallel_for(size_t{0}, rays.size(),
+      [&](size_t k) { parallel[k] = intersect_scene(accel, rays[k]); });
+  for (size_t k = 0; k < rays.size(); k++) {
+    CHECK(parallel[k].object == serial[k].object);
+    CHECK(parallel[k].distance == serial[k].distance);
+    CHECK(parallel[k].evaluations == serial[k].evaluations);
+    // A second build visits the objects in the same order.
+    auto other = intersect_scene(again, rays[k]);
+    CHECK(other.distance == serial[k].distance);
+    CHECK(other.evaluations == serial[k].evaluations);
+  }
+  // Moving the accel keeps its BVH.
+  auto moved = std::move(accel);
+  CHECK(intersect_scene(moved, rays[0]).distance == serial[0].distance);
+}
+
+// Whether the ray only grazes an object: inside its box, the object's
+// distance along the ray never goes below -tolerance thresholds (a ray that
+// touches a surface this little may be a hit or a miss).
+static bool grazes(
+    const accel_data& accel, int object, const ray3f& ray, float tolerance) {
+  auto t0 = 0.0f, t1 = 0.0f;
+  if (!intersect_bbox(ray, accel.objects[object].world_bounds, t0, t1)) return true;
+  auto samples = 4000;
+  for (auto k = 0; k <= samples; k++) {
+    auto t = t0 + (t1 - t0) * k / samples;
+    auto d = eval_object_distance(accel.objects[object], ray_point(ray, t));
+    if (d < -tolerance * hit_epsilon(accel, t)) return false;
+  }
+  return true;
+}
+
+TEST_CASE("accel: BVH and reference mode agree on random scenes") {
+  // Camera rays over random scenes: the same hits except on silhouettes that
+  // the ray grazes within the closest-approach tolerance.
+  for (auto seed : {7, 8}) {
+    auto scene  = make_random_scene(24, (uint64_t)seed);
+    auto fast   = make_accel(scene, accel_type::bvh, bvh_params(0));
+    auto slow   = make_accel(scene, accel_type::none, {});
+    auto camera = camera_data{};
+    camera.frame  = lookat_frame({3, 6, 14}, {0, -1, 0}, {0, 1, 0});
+    camera.aspect = 1;
+    auto size = 48, same = 0, grazing = 0;
+    for (auto j = 0; j < size; j++) {
+      for (auto i = 0; i < size; i++) {
+        auto ray = eval_camera(camera, {(i + 0.5f) / size, (j + 0.5f) / size}, {0, 0});
+        auto a   = intersect_scene(fast, ray);
+        auto b   = intersect_scene(slow, ray);
+        // Marched hits stop within the threshold of the surface, so along
+        // grazing rays their distance may differ by more than it.
+        if (a.hit == b.hit &&
+            (!a.hit || (a.object == b.object &&
+                           std::abs(a.distance - b.distance) <=
+                               1e-3f * a.distance + 4 * a.epsilon))) {
+          same++;
+          continue;
+        }
+        // The nearer of the two hits must be on a surface that the ray
+        // only grazes.
+        auto& nearer = (a.hit && (!b.hit || a.distance < b.distance)) ? a : b;
+        if (grazes(fast, nearer.object, ray, 3)) grazing++;
+      }
+    }
+    CHECK(same + grazing == size * size);
+    CHECK(same >= size * size * 99 / 100);
+  }
+}
+
+TEST_CASE("accel: BVH and reference images are equal") {
+  auto scene = make_random_scene(16, 9);
+  auto camera   = camera_data{};
+  camera.frame  = lookat_frame({-4, 5, 13}, {0, -1, 0}, {0, 1, 0});
+  camera.aspect = 1;
+  scene.cameras.push_back(camera);
+  auto params       = trace_params{};
+  params.resolution = 64;
+  params.samples    = 1;
+  params.shader     = shader_type::implicit_normal;
+  auto render = [&](accel_type type) {
+    auto accel  = make_accel(scene, type, bvh_params(0));
+    auto lights = make_lights(scene, accel);
+    auto state  = make_state(scene, params);
+    trace_samples(state, scene, accel, lights, params);
+    return get_render(state);
+  };
+  auto fast = render(accel_type::bvh), slow = render(accel_type::none);
+  auto equal = 0;
+  for (size_t k = 0; k < fast.pixels.size(); k++) {
+    auto a = fast.pixels[k], b = slow.pixels[k];
+    equal += std::abs(a.x - b.x) <= 1 / 255.0f && std::abs(a.y - b.y) <= 1 / 255.0f &&
+             std::abs(a.z - b.z) <= 1 / 255.0f && a.w == b.w;
+  }
+  CHECK(equal >= (int)fast.pixels.size() * 995 / 1000);
+}
+
+// -----------------------------------------------------------------------------
+// SHADOW QUERIES
+// -----------------------------------------------------------------------------
+
+TEST_CASE("accel: shadow queries agree with closest hits") {
+  auto scene = make_random_scene(40, 10);
+  auto rng   = make_rng(11);
+  for (auto linear_max : {0, 16}) {
+    for (auto type : {accel_type::bvh, accel_type::none}) {
+      auto small = make_random_scene(6, 12);
+      for (auto* which : {&scene, &small}) {
+        auto accel = make_accel(*which, type, bvh_params(linear_max));
+        auto count = type == accel_type::none ? 300 : 2000;
+        auto hits  = 0;
+        for (auto ray : make_random_rays(count, 13)) {
+          // Finite segments, as for shadow rays toward a light.
+          ray.tmax = 0.5f + 12 * rand1f(rng);
+          auto any = intersect_scene_any(accel, ray);
+          CHECK(any == intersect_scene(accel, ray).hit);
+          hits += any;
+        }
+        CHECK(hits > count / 10);
+        CHECK(hits < count);
+      }
+    }
+  }
+}
+
+// -----------------------------------------------------------------------------
+// HARD RAYS
+// -----------------------------------------------------------------------------
+
+TEST_CASE("accel: rays starting inside objects reach their exit") {
+  // From the centre of every object of a random scene, in random
+  // directions: the hit is that object's surface, where its distance is ~0.
+  auto scene = make_random_scene(40, 14, false);
+  auto rng   = make_rng(15);
+  for (auto type : {accel_type::bvh, accel_type::none}) {
+    auto accel = make_accel(scene, type, bvh_params(0));
+    for (auto i = 0; i < (int)accel.objects.size(); i++) {
+      auto& object = accel.objects[i];
+      auto  center = transform_point(object.world_from_local,
+          i % 4 == 0 ? scene.sdfunctions[i].program.nodes[0].size * 0.5f
+                     : vec3f{0, 0, 0});
+      if (i % 4 == 2) continue;  // the centre of a torus is outside it
+      REQUIRE(eval_object_distance(object, center) < 0);
+      for (auto k = 0; k < 8; k++) {
+        auto ray  = ray3f{center, sample_sphere(rand2f(rng))};
+        auto isec = intersect_scene(accel, ray);
+        REQUIRE(isec.hit);
+        auto p = ray_point(ray, isec.distance);
+        auto d = eval_object_distance(accel.objects[isec.object], p);
+        CHECK(std::abs(d) <= accel.march.fallback * isec.epsilon);
+        if (type == accel_type::bvh) {
+          // The exit of this object, or a surface of an overlapping one
+          // inside it (objects are separate surfaces).
+          if (isec.object != i) CHECK(eval_object_distance(object, p) < 0);
+        } else {
+          // The exit of the union of the objects (the seed's semantics).
+          auto inside = false;
+          for (auto& other : accel.objects)
+            inside |= eval_object_distance(other, p) < -3 * isec.epsilon;
+          CHECK(!inside);
+        }
+      }
+    }
+  }
+  // Exact forms from inside: a sphere of radius 2 scaled by 1.5 exits at 3.
+  auto single   = scene_data{};
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 2;
+  single.materials.push_back({});
+  single.sdfunctions.push_back(make_function(sphere, {0, 0, 0}));
+  single.sdfunctions[0].local_from_world = {
+      {1 / 1.5f, 0, 0}, {0, 1 / 1.5f, 0}, {0, 0, 1 / 1.5f}, {0, 0, 0}};
+  for (auto type : {accel_type::bvh, accel_type::none}) {
+    auto accel = make_accel(single, type, bvh_params(0));
+    auto isec  = intersect_scene(accel, {{0.5f, 0, 0}, {0, 1, 0}});
+    REQUIRE(isec.hit);
+    CHECK(isec.distance == doctest::Approx(std::sqrt(9 - 0.25f)).epsilon(1e-4));
+  }
+}
+
+TEST_CASE("accel: rays parallel to box faces") {
+  // A unit box at the origin (corner convention), rays along x at heights
+  // inside, on and just off its faces, through the loop and the BVH.
+  auto scene = scene_data{};
+  scene.materials.push_back({});
+  auto box = sdf_node{};
+  box.type = sdf_type::box;
+  box.size = {1, 1, 1};
+  scene.sdfunctions.push_back(make_function(box, {0, 0, 0}));
+  // Enough far-away spheres to make the BVH worth it.
+  for (auto k = 0; k < 10; k++)
+    scene.sdfunctions.push_back(make_function(sphere_node(0.1f), {k * 1.0f, 20, 0}));
+  for (auto linear_max : {0, 16}) {
+    for (auto type : {accel_type::bvh, accel_type::none}) {
+      auto accel = make_accel(scene, type, bvh_params(linear_max));
+      auto tol   = accel.march.fallback * hit_epsilon(accel, 3);
+      for (auto y : {0.5f, 0.999f, 1.0f, 0.0f, 1.001f, -0.001f, 1.01f}) {
+        for (auto z : {0.5f, 0.0f, 1.0f}) {
+          auto ray  = ray3f{{-2, y, z}, {1, 0, 0}};
+          auto isec = intersect_scene(accel, ray);
+          auto any  = intersect_scene_any(accel, ray);
+          CHECK(any == isec.hit);
+          auto outside = y > 1 + tol || y < -tol;
+          if (outside) {
+            CHECK(!isec.hit);
+          } else if (y > tol && y < 1 - tol && z > tol && z < 1 - tol) {
+            REQUIRE(isec.hit);
+            CHECK(isec.object == 0);
+            CHECK(isec.distance == doctest::Approx(2.0f).epsilon(1e-4));
+          }
+        }
+      }
+      // A ray inside the box, parallel to its faces, exits at x = 1.
+      auto isec = intersect_scene(accel, {{0.25f, 0.5f, 0.5f}, {1, 0, 0}});
+      REQUIRE(isec.hit);
+      CHECK(isec.distance == doctest::Approx(0.75f).epsilon(1e-4));
+    }
+  }
+}
+
+TEST_CASE("accel: grazing spheres") {
+  // Rays tangent to a rotated, scaled sphere (exact in the BVH, marched in
+  // the reference) at offsets around its silhouette: inside ones hit, ones
+  // beyond the closest-approach tolerance miss, in both modes.
+  auto scene = scene_data{};
+  scene.materials.push_back({});
+  scene.sdfunctions.push_back(make_function(sphere_node(0.5f), {0, 0, 0}));
+  auto  axes  = basis_fromz(normalize(vec3f{1, 2, 3}));
+  auto  world = frame3f{axes.x * 2, axes.y * 2, axes.z * 2, {1, 1, 1}};
+  scene.sdfunctions[0].local_from_world = inverse(world);  // radius 1 at (1,1,1)
+  for (auto k = 0; k < 12; k++)
+    scene.sdfunctions.push_back(make_function(sphere_node(0.1f), {k * 1.0f, -20, 0}));
+  for (auto type : {accel_type::bvh, accel_type::none}) {
+    auto accel = make_accel(scene, type, bvh_params(0));
+    auto tol   = accel.march.fallback * hit_epsilon(accel, 10);
+    for (auto k = -40; k <= 40; k++) {
+      auto offset = k * 2e-5f;  // around the silhouette, in world units
+      auto ray    = ray3f{{1 - 10, 1 + 1 + offset, 1}, {1, 0, 0}};
+      auto isec   = intersect_scene(accel, ray);
+      CHECK(intersect_scene_any(accel, ray) == isec.hit);
+      if (offset < -tol) {
+        REQUIRE(isec.hit);
+        CHECK(isec.object == 0);
+        // The chord's entry: x = 1 - sqrt(1 - (1 + offset)^2) (exact in the
+        // BVH; the reference stops within its threshold of the surface).
+        auto h = 1 + offset;
+        if (type == accel_type::bvh)
+          CHECK(isec.distance ==
+                doctest::Approx(10 - std::sqrt(1 - h * h)).epsilon(1e-5));
+        auto p = ray_point(ray, isec.distance);
+        CHECK(std::abs(eval_object_distance(accel.objects[0], p)) <= isec.epsilon);
+      }
+      if (offset > tol) CHECK(!isec.hit);
+    }
+  }
+}
+
+// -----------------------------------------------------------------------------
+// MARCHING
+// -----------------------------------------------------------------------------
+
+TEST_CASE("accel: march cutoff keeps every hit before it") {
+  // Rays at a torus, many grazing it, with few iterations so that the
+  // closest-approach fallback decides some of them: a march with a cutoff
+  // gives the full march's result whenever that lies at or before the
+  // cutoff, and otherwise no hit or that same result.
+  auto rng = make_rng(16);
+  for (auto planar : {0.0f, 0.9f}) {
+    auto params           = march_params{};
+    params.planar         = planar;
+    params.max_iterations = 24;
+    auto fallbacks = 0, stopped = 0;
+    for (auto k = 0; k < 3000; k++) {
+      auto target = vec3f{rand1f(rng) - 0.5f, (rand1f(rng) - 0.5f) * 0.6f,
+                        rand1f(rng) - 0.5f} * 2.6f;
+      auto origin = sample_sphere(rand2f(rng)) * 4;
+      auto ray    = ray3f{origin, normalize(target - origin)};
+      auto distance = [&](float t) {
+        return sd_torus(ray_point(ray, t), 1, 0.25f);
+      };
+      auto full = sphere_trace(distance, 0, 8, flt_max, params, 1e-6f);
+      if (full.hit && full.epsilon > 1e-5f * full.distance * 1.5f) fallbacks++;
+      for (auto cutoff : {1.0f, 2.5f, 3.0f, 3.5f, 4.0f, 5.0f, 6.0f}) {
+        auto cut = sphere_trace(distance, 0, 8, cutoff, params, 1e-6f);
+        CHECK(cut.evaluations <= full.evaluations);
+        if (full.hit && full.distance <= cutoff) {
+          REQUIRE(cut.hit);
+          CHECK(cut.distance == full.distance);
+          CHECK(cut.epsilon == full.epsilon);
+        } else if (cut.hit) {
+          CHECK(cut.distance == full.distance);
+        } else {
+          stopped += cut.evaluations < full.evaluations;
+        }
+      }
+    }
+    CHECK(fallbacks > 0);  // the fallback was exercised
+    CHECK(stopped > 1000);  // and the cutoff saved work
+  }
+  // Rays along x over the top of the tube (y = 0.25 at x = -1 and x = 1),
+  // within the closest-approach tolerance at x = -1 and rising clear of the
+  // tube by x = 1: the full march reports the closest approach near x = -1
+  // (t = 3), and a cutoff beyond it must keep it.
+  auto params = march_params{};
+  auto eps    = params.hit_relative * 3;
+  auto kept   = 0;
+  for (auto k = 0; k <= 12; k++) {
+    auto ray      = ray3f{{-4, 0.25f + k * 0.15f * eps - 3 * 2e-4f, 0},
+        normalize(vec3f{1, 2e-4f, 0})};
+    auto distance = [&](float t) {
+      return sd_torus(ray_point(ray, t), 1, 0.25f);
+    };
+    auto full = sphere_trace(distance, 0, 8, flt_max, params, 1e-6f);
+    if (!full.hit) continue;
+    CHECK(full.distance == doctest::Approx(3).epsilon(0.01));
+    for (auto cutoff : {3.05f, 3.5f, 4.5f}) {
+      auto cut = sphere_trace(distance, 0, 8, cutoff, params, 1e-6f);
+      REQUIRE(cut.hit);
+      CHECK(cut.distance == full.distance);
+      kept++;
+    }
+  }
+  CHECK(kept >= 9);
 }

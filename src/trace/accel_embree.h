@@ -1,0 +1,28 @@
+// # implicit: Embree BVH over implicit objects (internal to accel.cpp)
+//
+// Every bounded object is one Embree user primitive whose box is its world
+// bounds, padded. The intersect callback runs intersect_object() for that
+// primitive and keeps the closest hit (equal distances: the lower object
+// index), the occluded callback stops at the first hit.
+#pragma once
+
+#include "accel.h"
+
+namespace implicit {
+
+// Padding of object boxes against rounding, so that surfaces lying on a box
+// face (boxes, thin boxes) are never clipped.
+inline float object_box_padding(const accel_data& accel) {
+  return accel.hit_min + accel.march.hit_relative * 1e-3f;
+}
+
+// Build the BVH of accel.bounded. Throws io_error if Embree fails.
+embree_bvh make_embree_bvh(const accel_data& accel);
+
+// Closest hit among the bounded objects; `evaluations` counts all of them.
+scene_intersection intersect_embree(const accel_data& accel, const ray3f& ray);
+
+// Whether any bounded object is hit.
+bool intersect_embree_any(const accel_data& accel, const ray3f& ray);
+
+}  // namespace implicit
