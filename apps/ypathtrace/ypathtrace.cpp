@@ -145,7 +145,7 @@ static std::string batch_filename(const std::string& output, int samples) {
 
 // Open the viewer on the loaded scene.
 static void run_interactive(app_options& opts, scene_data& scene,
-    const accel_data& accel, const lights_data& lights) {
+    accel_data& accel, const lights_data& lights) {
 #ifdef IMPLICIT_VIEWER
   auto viewer        = viewer_params{};
   viewer.name        = std::filesystem::path{opts.scene}.filename().string();

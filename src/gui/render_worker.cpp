@@ -57,12 +57,12 @@ static void render_job_passes(
   scene.cameras[params.camera] = job.camera;
   // The only march parameter the viewer edits: the others set hit_min in
   // make_accel() and must stay as they were.
-  worker.accel.march.max_iterations = params.march.max_iterations;
+  worker.accel->march.max_iterations = params.march.max_iterations;
   if (params.pratio > 1) {
     auto preview = preview_params(params);
     auto state   = make_state(scene, preview);
     auto start   = std::chrono::steady_clock::now();
-    if (!trace_samples_cancellable(state, scene, worker.accel, *worker.lights,
+    if (!trace_samples_cancellable(state, scene, *worker.accel, *worker.lights,
             preview, worker.latest, id))
       return;
     publish(worker, id, get_render(state), state.samples, true, elapsed(start));
@@ -70,7 +70,7 @@ static void render_job_passes(
   auto state = make_state(scene, params);
   while (state.samples < params.samples) {
     auto start = std::chrono::steady_clock::now();
-    if (!trace_samples_cancellable(state, scene, worker.accel, *worker.lights,
+    if (!trace_samples_cancellable(state, scene, *worker.accel, *worker.lights,
             params, worker.latest, id))
       return;
     publish(worker, id, get_render(state), state.samples, false, elapsed(start));
@@ -96,12 +96,12 @@ static void run_worker(render_worker& worker) {
 
 render_worker::~render_worker() { stop_worker(*this); }
 
-// Keep the scene and lights, copy the accel, start the thread.
+// Keep the scene, accel and lights, start the thread.
 void start_worker(render_worker& worker, scene_data& scene,
-    const accel_data& accel, const lights_data& lights) {
+    accel_data& accel, const lights_data& lights) {
   stop_worker(worker);
   worker.scene  = &scene;
-  worker.accel  = accel;
+  worker.accel  = &accel;
   worker.lights = &lights;
   worker.quit   = false;
   worker.thread = std::thread{run_worker, std::ref(worker)};

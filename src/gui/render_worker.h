@@ -58,7 +58,8 @@ struct render_update {
 
 // The worker and what it shares with the interface thread. The thread reads
 // the scene, accel and lights given to start_worker() and writes only the
-// scene's camera slots; nothing else may write them while it runs.
+// scene's camera slots and the accel's iteration cap, between passes;
+// nothing else may touch them while it runs.
 struct render_worker {
   render_worker() = default;
   render_worker(const render_worker&) = delete;
@@ -66,7 +67,7 @@ struct render_worker {
   ~render_worker();  // stops and joins the thread
 
   scene_data*        scene  = nullptr;
-  accel_data         accel  = {};  // own copy: march.max_iterations varies
+  accel_data*        accel  = nullptr;  // march.max_iterations set per job
   const lights_data* lights = nullptr;
 
   std::thread             thread = {};
@@ -84,7 +85,7 @@ struct render_worker {
 
 // Start the thread. The scene, accel and lights must outlive the worker.
 void start_worker(render_worker& worker, scene_data& scene,
-    const accel_data& accel, const lights_data& lights);
+    accel_data& accel, const lights_data& lights);
 
 // Cancel the current render and start `job`; returns its id at once.
 int64_t restart_render(render_worker& worker, const render_job& job);

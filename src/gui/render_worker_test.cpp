@@ -189,7 +189,7 @@ TEST_CASE("render_worker: a new job cancels the running one") {
   navigate_camera(moved, navigation_mode::orbit, {40, 10}, 0);
   auto fast                   = params;
   fast.samples                = 2;
-  fast.march.max_iterations   = 3;  // the worker's own accel must follow
+  fast.march.max_iterations   = 3;  // the worker must set the accel's cap
   fast.shader                 = shader_type::normal;
   auto job                    = restart_render(worker, {fast, moved});
   auto previews = 0, backwards = 0;
@@ -202,12 +202,13 @@ TEST_CASE("render_worker: a new job cancels the running one") {
   // iteration cap, and different from the unmoved camera's.
   auto scene                    = example.scene;  // has `moved` in its slot
   CHECK(scene.cameras[params.camera].frame.o == moved.frame.o);
-  auto capped                   = example.accel;
-  capped.march.max_iterations   = 3;
+  auto& capped = example.accel;  // the worker set its cap
+  CHECK(capped.march.max_iterations == 3);
   auto expected = render_cli(scene, capped, example.lights, fast);
   CHECK(same_pixels(last.image, expected));
   scene.cameras[params.camera]  = camera;
   CHECK_FALSE(same_pixels(last.image, render_cli(scene, capped, example.lights, fast)));
+  capped.march.max_iterations = params.march.max_iterations;
   auto uncapped = render_cli(example.scene, example.accel, example.lights, fast);
   CHECK_FALSE(same_pixels(last.image, uncapped));
 }

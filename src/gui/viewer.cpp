@@ -366,7 +366,7 @@ static bool navigate(viewer_state& state) {
 }
 
 // The window and the loop.
-void run_viewer(scene_data& scene, const accel_data& accel,
+void run_viewer(scene_data& scene, accel_data& accel,
     const lights_data& lights, const trace_params& params,
     const viewer_params& viewer) {
   check_display();
