@@ -216,17 +216,18 @@ static bbox3f node_bounds(const sdf_program& program, int index) {
       return intersect(node_bounds(program, node.left),
           node_bounds(program, node.right));
     case sdf_type::op_subtraction: return node_bounds(program, node.left);
-    // Smooth operators move the surface by at most blend/4.
+    // The smooth minimum lies at most blend/4 below the minimum, so a
+    // smooth union grows by that much; the smooth maximum is never below the
+    // maximum, so smooth intersections and subtractions do not grow.
     case sdf_type::op_smooth_union:
       return expand(merge(node_bounds(program, node.left),
                         node_bounds(program, node.right)),
           node.blend * 0.25f);
     case sdf_type::op_smooth_intersection:
-      return expand(intersect(node_bounds(program, node.left),
-                        node_bounds(program, node.right)),
-          node.blend * 0.25f);
+      return intersect(node_bounds(program, node.left),
+          node_bounds(program, node.right));
     case sdf_type::op_smooth_subtraction:
-      return expand(node_bounds(program, node.left), node.blend * 0.25f);
+      return node_bounds(program, node.left);
     case sdf_type::op_round:
       return expand(node_bounds(program, node.left), node.radius);
     case sdf_type::op_onion:

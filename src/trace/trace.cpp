@@ -385,7 +385,10 @@ vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
   if (params.tentfilter)
     puv = vec2f{tent_offset(puv.x), tent_offset(puv.y)} + vec2f{0.5f, 0.5f};
   auto uv  = vec2f{(i + puv.x) / width, (j + puv.y) / height};
-  auto ray = eval_camera(camera, uv, sample_disk(rand2f(rng)));
+  // The lens sample is drawn only for cameras that use it (pinholes skip
+  // the warp, as it costs a sizeable part of a camera ray).
+  auto lens = camera.aperture > 0 ? sample_disk(rand2f(rng)) : vec2f{0, 0};
+  auto ray  = eval_camera(camera, uv, lens);
   auto color = params.shader == shader_type::implicit
                    ? shade_implicit(scene, accel, lights, ray, params, rng, evaluations)
                    : shade_debug(scene, accel, ray, params, evaluations);
