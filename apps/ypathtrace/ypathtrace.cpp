@@ -31,7 +31,7 @@ struct app_options {
   std::string  camera      = "";
   std::string  shader      = "implicit";
   std::string  accel       = "bvh";
-  std::string  mis         = "one";
+  std::string  mis         = "two";
   trace_params params      = {};
   float        exposure    = 0;
   bool         filmic      = false;

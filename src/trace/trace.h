@@ -50,7 +50,7 @@ struct trace_params {
   uint64_t    seed         = 961748941;
   bool        envhidden    = false;
   bool        implicit_mis = true;  // false: --noimplicitmis
-  mis_type    mis          = mis_type::one_sample;
+  mis_type    mis          = mis_type::two_sample;  // less noise at equal time
   bool        tentfilter   = false;
   accel_type  accel        = accel_type::bvh;
   march_params march       = {};
