@@ -191,11 +191,12 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
         auto  wl = transform_direction(inverse(environment.frame), direction);
         auto  u  = std::atan2(wl.z, wl.x) / (2 * pif);
         if (u < 0) u += 1;
-        auto theta = std::acos(clamp(wl.y, -1.0f, 1.0f));
-        auto i     = clamp((int)(u * light.width), 0, light.width - 1);
+        // atan2 keeps small polar angles accurate where acos(y) rounds to 0.
+        auto sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
+        auto theta     = std::atan2(sin_theta, wl.y);
+        auto i         = clamp((int)(u * light.width), 0, light.width - 1);
         auto j = clamp((int)(theta / pif * light.height), 0, light.height - 1);
         auto prob = sample_discrete_pdf(light.cdf, j * light.width + i);
-        auto sin_theta = std::sin(theta);
         if (sin_theta > 0)
           pdf += prob * light.width * light.height /
                  (2 * pif * pif * sin_theta);

@@ -1,0 +1,137 @@
+// Tests for light sampling: pdfs integrate to 1 over the sphere of
+// directions and agree with the directions sample_lights() produces.
+
+#include "lights.h"
+
+#include <doctest/doctest.h>
+
+#include "../math/random.h"
+#include "../math/sampling.h"
+
+using namespace implicit;
+
+namespace {
+
+// Integral of sample_lights_pdf over all directions from `position`, by
+// stratified quadrature in (cos theta, phi).
+double integrate_pdf(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, vec3f position, int n = 800) {
+  auto sum = 0.0;
+  for (auto j = 0; j < n; j++) {
+    for (auto i = 0; i < 2 * n; i++) {
+      auto u = (i + 0.5f) / (2 * n), v = (j + 0.5f) / n;
+      auto direction = sample_sphere({u, v});
+      sum += sample_lights_pdf(scene, accel, lights, position, direction);
+    }
+  }
+  return sum * (4 * pif) / (2.0 * n * n);
+}
+
+// A lat-long environment with a bright spot, so importance sampling matters.
+scene_data environment_scene() {
+  auto scene   = scene_data{};
+  auto texture = texture_data{};
+  texture.image = make_image(32, 16);
+  for (auto j = 0; j < 16; j++)
+    for (auto i = 0; i < 32; i++)
+      pixel(texture.image, i, j) = {0.1f + 0.05f * i, 0.2f, 0.1f + j * 0.02f, 1};
+  pixel(texture.image, 5, 3) = {50, 40, 30, 1};
+  scene.textures.push_back(texture);
+  auto environment         = environment_data{};
+  environment.emission     = {1, 1, 1};
+  environment.emission_tex = 0;
+  // A rotated environment frame exercises the frame in both directions.
+  environment.frame = {{0, 0, 1}, {0, 1, 0}, {-1, 0, 0}, {0, 0, 0}};
+  scene.environments.push_back(environment);
+  return scene;
+}
+
+sdf_function_data emitter(sdf_node node, vec3f origin) {
+  auto function             = sdf_function_data{};
+  function.program          = make_primitive_program(node);
+  function.local_from_world = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -origin};
+  function.material         = 0;
+  return function;
+}
+
+}  // namespace
+
+TEST_CASE("lights: environment pdf integrates to 1 and matches its samples") {
+  auto scene  = environment_scene();
+  auto accel  = make_accel(scene, accel_type::bvh, {});
+  auto lights = make_lights(scene, accel);
+  REQUIRE(lights.lights.size() == 1);
+  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}) == doctest::Approx(1.0).epsilon(0.01));
+  // Importance-sampled estimate of the environment's integral equals the
+  // quadrature of the same integral.
+  auto quadrature = 0.0;
+  auto n          = 600;
+  for (auto j = 0; j < n; j++)
+    for (auto i = 0; i < 2 * n; i++)
+      quadrature += eval_environment(scene, sample_sphere({(i + 0.5f) / (2 * n), (j + 0.5f) / n})).x;
+  quadrature *= 4 * pif / (2.0 * n * n);
+  auto rng      = make_rng(5);
+  auto estimate = 0.0;
+  auto samples  = 200000;
+  for (auto k = 0; k < samples; k++) {
+    auto direction = sample_lights(scene, accel, lights, {0, 0, 0}, rand1f(rng),
+        rand1f(rng), rand2f(rng));
+    auto pdf = sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction);
+    INFO(direction.x, " ", direction.y, " ", direction.z, " k ", k);
+    REQUIRE(pdf > 0);
+    estimate += eval_environment(scene, direction).x / pdf;
+  }
+  estimate /= samples;
+  CHECK(estimate == doctest::Approx(quadrature).epsilon(0.01));
+}
+
+TEST_CASE("lights: box and sphere light pdfs integrate to 1 from outside") {
+  auto scene    = scene_data{};
+  auto material = material_data{};
+  material.emission = {5, 5, 5};
+  scene.materials.push_back(material);
+  auto box = sdf_node{};
+  box.type = sdf_type::box;
+  box.size = {0.5f, 0.4f, 1e-5f};  // the seed's flat light
+  scene.sdfunctions.push_back(emitter(box, {-0.2f, 0.25f, 1.2f}));
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.3f;
+  scene.sdfunctions.push_back(emitter(sphere, {1, 1, -1}));
+  auto accel  = make_accel(scene, accel_type::bvh, {});
+  auto lights = make_lights(scene, accel);
+  REQUIRE(lights.lights.size() == 2);
+  for (auto position : {vec3f{0, 0, 0}, vec3f{0.3f, 0.1f, -0.2f}}) {
+    CHECK(integrate_pdf(scene, accel, lights, position, 1200) ==
+          doctest::Approx(1.0).epsilon(0.02));
+  }
+  // Samples point at the lights and have a positive pdf.
+  auto rng = make_rng(9);
+  for (auto k = 0; k < 1000; k++) {
+    auto direction = sample_lights(scene, accel, lights, {0, 0, 0}, rand1f(rng),
+        rand1f(rng), rand2f(rng));
+    CHECK(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction) > 0);
+  }
+}
+
+TEST_CASE("lights: non-rigid or unsupported emitters are left to BSDF sampling") {
+  auto scene    = scene_data{};
+  auto material = material_data{};
+  material.emission = {5, 5, 5};
+  scene.materials.push_back(material);
+  auto torus    = sdf_node{};
+  torus.type    = sdf_type::torus;
+  torus.radius  = 1;
+  torus.radius2 = 0.2f;
+  scene.sdfunctions.push_back(emitter(torus, {0, 2, 0}));
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.3f;
+  auto squashed = emitter(sphere, {1, 1, -1});
+  squashed.local_from_world.y = {0, 2, 0};
+  scene.sdfunctions.push_back(squashed);
+  auto accel  = make_accel(scene, accel_type::bvh, {});
+  auto lights = make_lights(scene, accel);
+  CHECK(lights.lights.empty());
+  CHECK(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, {0, 1, 0}) == 0);
+}
