@@ -33,8 +33,9 @@ static timed_render render_for(const scene_data& scene, const accel_data& accel,
   auto result = timed_render{};
   while (state.samples < max_samples) {
     trace_samples(state, scene, accel, lights, params);
-    result.seconds = std::chrono::duration<double>(
-        std::chrono::steady_clock::now() - start).count();
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+            .count();
     if (result.seconds >= seconds) break;
   }
   result.samples = state.samples;
@@ -53,9 +54,9 @@ static double rmse(const image_data& a, const image_data& b) {
 
 int main(int argc, char** argv) {
   // Default: the seed's 07_sdfunction scene, as the issue asks.
-  auto filename = argc > 1 && argv[1][0] != '-'
-                      ? std::string{argv[1]}
-                      : std::string{IMPLICIT_SHARED_DIR} +
+  auto filename          = argc > 1 && argv[1][0] != '-'
+                               ? std::string{argv[1]}
+                               : std::string{IMPLICIT_SHARED_DIR} +
                             "/seed_scenes/tests/07_sdfunction/sdfunction.json";
   auto resolution        = 180;
   auto reference_samples = 4096;
@@ -64,7 +65,8 @@ int main(int argc, char** argv) {
   for (auto i = argc > 1 && argv[1][0] != '-' ? 2 : 1; i + 1 < argc; i += 2) {
     auto arg = std::string{argv[i]};
     if (arg == "--resolution") resolution = std::atoi(argv[i + 1]);
-    if (arg == "--reference-samples") reference_samples = std::atoi(argv[i + 1]);
+    if (arg == "--reference-samples")
+      reference_samples = std::atoi(argv[i + 1]);
     if (arg == "--seconds") seconds = std::atof(argv[i + 1]);
     if (arg == "--bounces") bounces = std::atoi(argv[i + 1]);
   }
@@ -87,19 +89,23 @@ int main(int argc, char** argv) {
   auto reference_params = params;
   reference_params.mis  = mis_type::two_sample;
   reference_params.seed = 12345;
-  auto reference = render_for(scene, accel, lights, reference_params, 1e30,
-      reference_samples);
-  std::printf("scene %s, %dx%d, %d bounces, reference %d spp (two-sample MIS) in %.1f s\n\n",
+  auto reference        = render_for(
+             scene, accel, lights, reference_params, 1e30, reference_samples);
+  std::printf(
+      "scene %s, %dx%d, %d bounces, reference %d spp (two-sample MIS) in %.1f "
+      "s\n\n",
       filename.c_str(), reference.image.width, reference.image.height, bounces,
       reference.samples, reference.seconds);
-  std::printf("| sampler | samples in %.0f s | RMSE | RMSE ratio to one-sample |\n", seconds);
+  std::printf(
+      "| sampler | samples in %.0f s | RMSE | RMSE ratio to one-sample |\n",
+      seconds);
   std::printf("|---|---|---|---|\n");
   struct mode {
     const char* name;
     bool        mis;
     mis_type    type;
   };
-  auto modes   = {mode{"MIS off (--noimplicitmis)", false, mis_type::one_sample},
+  auto modes = {mode{"MIS off (--noimplicitmis)", false, mis_type::one_sample},
       mode{"one-sample MIS (--mis one)", true, mis_type::one_sample},
       mode{"two-sample MIS (--mis two)", true, mis_type::two_sample}};
   auto results = std::vector<std::pair<timed_render, double>>{};
@@ -113,8 +119,8 @@ int main(int argc, char** argv) {
   auto index = 0;
   for (auto& m : modes) {
     auto& r = results[index++];
-    std::printf("| %s | %d | %.4f | %.2f |\n", m.name, r.first.samples, r.second,
-        r.second / results[1].second);
+    std::printf("| %s | %d | %.4f | %.2f |\n", m.name, r.first.samples,
+        r.second, r.second / results[1].second);
   }
   return 0;
 }

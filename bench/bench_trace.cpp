@@ -70,8 +70,8 @@ static scene_data make_random_scene(int count, uint64_t seed) {
   scene.materials[2].roughness = 0.3f;
   scene.materials[3].type      = material_type::reflective;
   scene.materials[3].roughness = 0.4f;
-  auto light     = material_data{};
-  light.emission = {30, 30, 30};
+  auto light                   = material_data{};
+  light.emission               = {30, 30, 30};
   scene.materials.push_back(light);
 
   auto spacing = 10 / std::cbrt((float)count);
@@ -103,35 +103,36 @@ static scene_data make_random_scene(int count, uint64_t seed) {
     }
     auto rotation = random_rotation(rng);
     auto scale    = vec3f{0.6f + 0.8f * rand1f(rng), 0.6f + 0.8f * rand1f(rng),
-        0.6f + 0.8f * rand1f(rng)} * size;
+                     0.6f + 0.8f * rand1f(rng)} *
+                 size;
     auto position =
         (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * (10 - size);
     auto world_from_local = frame3f{rotation.x * scale.x, rotation.y * scale.y,
         rotation.z * scale.z, {0, 0, 0}};
-    world_from_local.o = position - transform_vector(world_from_local, half);
-    auto function             = sdf_function_data{};
-    function.name             = "object" + std::to_string(i);
-    function.program          = make_primitive_program(node);
+    world_from_local.o    = position - transform_vector(world_from_local, half);
+    auto function         = sdf_function_data{};
+    function.name         = "object" + std::to_string(i);
+    function.program      = make_primitive_program(node);
     function.local_from_world = inverse(world_from_local);
     function.material         = rand1i(rng, 4);
     scene.sdfunctions.push_back(function);
   }
-  auto floor                = sdf_function_data{};
-  auto plane                = sdf_node{};
-  plane.type                = sdf_type::plane;
-  floor.name                = "floor";
-  floor.program             = make_primitive_program(plane);
-  floor.local_from_world.o  = {0, 5.5f, 0};  // y = -5.5
-  floor.material            = 0;
+  auto floor               = sdf_function_data{};
+  auto plane               = sdf_node{};
+  plane.type               = sdf_type::plane;
+  floor.name               = "floor";
+  floor.program            = make_primitive_program(plane);
+  floor.local_from_world.o = {0, 5.5f, 0};  // y = -5.5
+  floor.material           = 0;
   scene.sdfunctions.push_back(floor);
-  auto lamp                 = sdf_function_data{};
-  auto panel                = sdf_node{};
-  panel.type                = sdf_type::box;
-  panel.size                = {4, 1e-5f, 4};
-  lamp.name                 = "light";
-  lamp.program              = make_primitive_program(panel);
-  lamp.local_from_world.o   = {2, -9, 2};  // corner at (-2, 9, -2)
-  lamp.material             = 4;
+  auto lamp               = sdf_function_data{};
+  auto panel              = sdf_node{};
+  panel.type              = sdf_type::box;
+  panel.size              = {4, 1e-5f, 4};
+  lamp.name               = "light";
+  lamp.program            = make_primitive_program(panel);
+  lamp.local_from_world.o = {2, -9, 2};  // corner at (-2, 9, -2)
+  lamp.material           = 4;
   scene.sdfunctions.push_back(lamp);
 
   auto sky     = environment_data{};
@@ -177,10 +178,11 @@ static run_result run(const scene_data& scene, const accel_data& accel,
   auto cpu_start = cpu_seconds();
   for (auto s = 0; s < params.samples; s++)
     trace_samples(state, scene, accel, lights, params);
-  auto result    = run_result{};
-  result.cpu     = cpu_seconds() - cpu_start;
-  result.seconds = std::chrono::duration<double>(
-      std::chrono::steady_clock::now() - start).count();
+  auto result = run_result{};
+  result.cpu  = cpu_seconds() - cpu_start;
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
   result.samples = (double)state.width * state.height * params.samples;
   for (auto e : state.evaluations) result.evaluations += (double)e;
   result.image = get_render(state);
@@ -193,8 +195,10 @@ static double equal_fraction(
   auto equal = 0;
   for (size_t i = 0; i < a.pixels.size(); i++) {
     auto pa = a.pixels[i], pb = b.pixels[i];
-    if (std::abs(pa.x - pb.x) <= tolerance && std::abs(pa.y - pb.y) <= tolerance &&
-        std::abs(pa.z - pb.z) <= tolerance && std::abs(pa.w - pb.w) <= tolerance)
+    if (std::abs(pa.x - pb.x) <= tolerance &&
+        std::abs(pa.y - pb.y) <= tolerance &&
+        std::abs(pa.z - pb.z) <= tolerance &&
+        std::abs(pa.w - pb.w) <= tolerance)
       equal++;
   }
   return a.pixels.empty() ? 1 : (double)equal / a.pixels.size();
@@ -207,8 +211,8 @@ static double peak_memory_mib() {
 }
 
 static double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(
-      std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 struct bench_options {
@@ -263,19 +267,21 @@ static void bench_scene(const std::string& name, const scene_data& scene,
       low_ref_camera.seconds / low_ref_camera.samples * fast_camera.samples +
       low_ref_path.seconds / low_ref_path.samples * fast_path.samples;
   auto ref_camera = run_result{}, ref_path = run_result{};
-  auto skipped    = estimate > options.reference_limit;
-  auto equal      = std::string{"-"};
+  auto skipped = estimate > options.reference_limit;
+  auto equal   = std::string{"-"};
   if (!skipped) {
     ref_camera = run(scene, slow, camera);
     ref_path   = run(scene, slow, path);
-    equal = fixed(100 * equal_fraction(fast_camera.image, ref_camera.image,
-                            1 / 255.0f), 2) + "%";
+    equal      = fixed(100 * equal_fraction(
+                                 fast_camera.image, ref_camera.image, 1 / 255.0f),
+                     2) +
+            "%";
   } else {
     // Compare like with like: the BVH at the same low resolution, scaled to
     // the full run through the low-resolution ratio.
     auto low_fast_camera = run(scene, fast, low_camera);
     auto low_fast_path   = run(scene, fast, low_path);
-    auto scale_to = [](run_result ref, const run_result& low_fast,
+    auto scale_to        = [](run_result ref, const run_result& low_fast,
                         const run_result& fast_run) {
       ref.seconds = ref.seconds / low_fast.seconds * fast_run.seconds;
       ref.cpu     = ref.cpu / low_fast.cpu * fast_run.cpu;
@@ -289,24 +295,25 @@ static void bench_scene(const std::string& name, const scene_data& scene,
   auto mrays = [](const run_result& r) { return r.samples / r.seconds / 1e6; };
   auto evals = [](const run_result& r) { return r.evaluations / r.samples; };
   auto mark  = skipped ? std::string{"~"} : std::string{""};
-  auto note  = skipped ? " (reference est. " + fixed(estimate, 0) + " s: skipped)"
-                       : std::string{""};
+  auto note  = skipped
+                   ? " (reference est. " + fixed(estimate, 0) + " s: skipped)"
+                   : std::string{""};
   // Two threads against one: wall clock, and CPU time per sample (what two
   // free cores would give; the wall ratio suffers when the cores are shared).
   auto wall_scaling = one_thread.seconds / two_threads.seconds;
   auto cpu_scaling  = 2 * one_thread.cpu / two_threads.cpu;
   auto per_cpu = [](const run_result& r) { return r.samples / r.cpu / 1e6; };
-  std::printf("| %s%s | %d | %.1f | %.3f | %.3f | %.1f | %.4f | %.4f | %.1f "
-              "| %s%.1f | %s%.1f | %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f "
-              "| %.2f | %.0f |\n",
+  std::printf(
+      "| %s%s | %d | %.1f | %.3f | %.3f | %.1f | %.4f | %.4f | %.1f "
+      "| %s%.1f | %s%.1f | %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f "
+      "| %.2f | %.0f |\n",
       name.c_str(), note.c_str(), (int)fast.objects.size(), build_ms,
       mrays(fast_camera), per_cpu(fast_camera), evals(fast_camera),
       mrays(fast_path), per_cpu(fast_path), evals(fast_path), mark.c_str(),
-      evals(ref_camera), mark.c_str(),
-      evals(ref_path), mark.c_str(), ref_camera.cpu / fast_camera.cpu,
-      mark.c_str(), ref_path.cpu / fast_path.cpu, equal.c_str(),
-      mrays(one_thread), mrays(two_threads), wall_scaling, cpu_scaling,
-      peak_memory_mib());
+      evals(ref_camera), mark.c_str(), evals(ref_path), mark.c_str(),
+      ref_camera.cpu / fast_camera.cpu, mark.c_str(),
+      ref_path.cpu / fast_path.cpu, equal.c_str(), mrays(one_thread),
+      mrays(two_threads), wall_scaling, cpu_scaling, peak_memory_mib());
   std::fflush(stdout);
 }
 
@@ -366,15 +373,17 @@ int main(int argc, char** argv) {
       }
     } else if (arg.rfind("--", 0) == 0) {
       std::fprintf(stderr,
-          "usage: bench_trace [--resolution N] [--samples N] [--counts 1,10,...] "
+          "usage: bench_trace [--resolution N] [--samples N] [--counts "
+          "1,10,...] "
           "[--seed N] [--reference-limit S] [scene.json...]\n");
       return 1;
     } else {
       scenes.push_back(arg);
     }
   }
-  std::printf("resolution %d, path tracing %d spp (4 bounces), camera rays 1 spp "
-              "implicit_normal; %d hardware threads; load average %s\n\n",
+  std::printf(
+      "resolution %d, path tracing %d spp (4 bounces), camera rays 1 spp "
+      "implicit_normal; %d hardware threads; load average %s\n\n",
       options.resolution, options.samples,
       (int)tbb::global_control::active_value(
           tbb::global_control::max_allowed_parallelism),
@@ -386,8 +395,9 @@ int main(int argc, char** argv) {
       "| ref evals/path sample | camera vs ref | path vs ref | normals equal "
       "| path Msamples/s, 1 thread | 2 threads | 2 threads / 1 (wall) "
       "| 2 threads / 1 (CPU) | peak MiB |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---"
-              "|---|---|\n");
+  std::printf(
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---"
+      "|---|---|\n");
   auto ok = true;
   for (auto count : counts) {
     ok &= in_child([&]() {

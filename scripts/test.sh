@@ -6,6 +6,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 jobs=$(nproc 2>/dev/null || echo 2)
 
+# Formatting (STYLE.md): the sources must be as clang-format leaves them.
+git ls-files '*.cpp' '*.h' | xargs clang-format --dry-run -Werror
+
 cmake --preset release
 cmake --build --preset release -j "$jobs"
 ctest --preset release -j "$jobs"

@@ -43,26 +43,30 @@ TEST_CASE("cli: bad options and values fail with a one-line reason") {
            std::string{"--shader nope"}, std::string{"--accel fast"},
            std::string{"--clamp -1"}, std::string{"--output out.gif"},
            std::string{"--stmaxiter 0"}}) {
-    auto result = run_ypathtrace("--scene " + example_scene() + " " + args +
-                                 (args.find("--output") == std::string::npos ? " --output " + out : ""));
+    auto result = run_ypathtrace(
+        "--scene " + example_scene() + " " + args +
+        (args.find("--output") == std::string::npos ? " --output " + out : ""));
     INFO(args, " -> ", result.output);
     CHECK(result.status != 0);
     CHECK(result.output.rfind("ypathtrace: error:", 0) == 0);
     CHECK(!fs::exists(out));
   }
   auto shader = run_ypathtrace("--shader nope");
-  CHECK(shader.output.find("implicit_normal") != std::string::npos);  // lists valid names
+  CHECK(shader.output.find("implicit_normal") !=
+        std::string::npos);  // lists valid names
 }
 
 TEST_CASE("cli: missing or broken scene fails without output") {
   auto dir    = test_dir("cli_scene");
   auto out    = (dir / "out.png").string();
-  auto result = run_ypathtrace("--scene " + (dir / "missing.json").string() + " --output " + out);
+  auto result = run_ypathtrace(
+      "--scene " + (dir / "missing.json").string() + " --output " + out);
   CHECK(result.status == 1);
   CHECK(result.output.find("missing.json") != std::string::npos);
   CHECK(!fs::exists(out));
   auto broken = dir / "broken.json";
-  std::ofstream(broken) << "{ \"asset\": { \"version\": \"4.2\" }, \"sdfunctions\": [ { \"type\": \"sphere\", ";
+  std::ofstream(broken) << "{ \"asset\": { \"version\": \"4.2\" }, "
+                           "\"sdfunctions\": [ { \"type\": \"sphere\", ";
   result = run_ypathtrace("--scene " + broken.string() + " --output " + out);
   CHECK(result.status == 1);
   CHECK(result.output.find("broken.json") != std::string::npos);
@@ -70,7 +74,8 @@ TEST_CASE("cli: missing or broken scene fails without output") {
   // Only the error line: no partial image, no temporary files left.
   CHECK(fs::is_empty(dir / "..") == false);
   auto files = 0;
-  for (auto& entry : fs::directory_iterator(dir)) files += entry.path() != broken;
+  for (auto& entry : fs::directory_iterator(dir))
+    files += entry.path() != broken;
   CHECK(files == 0);
 }
 
@@ -78,8 +83,8 @@ TEST_CASE("cli: renders the example in every output format") {
   auto dir = test_dir("cli_render");
   for (auto ext : {".png", ".jpg", ".hdr", ".exr"}) {
     auto out    = (dir / (std::string{"example"} + ext)).string();
-    auto result = run_ypathtrace("--scene " + example_scene() + " --output " + out +
-                                 " --resolution 48 --samples 2 --quiet");
+    auto result = run_ypathtrace("--scene " + example_scene() + " --output " +
+                                 out + " --resolution 48 --samples 2 --quiet");
     INFO(result.output);
     REQUIRE(result.status == 0);
     auto image = implicit::load_image(out);
@@ -98,8 +103,8 @@ TEST_CASE("cli: a scene without lights falls back to eyelight") {
                      "frame": [1,0,0, 0,1,0, 0,0,1, 0,0,0]}]
   })";
   auto out    = (dir / "dark.png").string();
-  auto result = run_ypathtrace("--scene " + scene.string() + " --output " + out +
-                               " --resolution 32 --samples 2");
+  auto result = run_ypathtrace("--scene " + scene.string() + " --output " +
+                               out + " --resolution 32 --samples 2");
   INFO(result.output);
   CHECK(result.status == 0);
   CHECK(result.output.find("no lights") != std::string::npos);

@@ -18,12 +18,15 @@ std::string example_scene(const std::string& name) {
 }
 
 // Fraction of pixels equal within `tolerance` on every channel.
-double equal_fraction(const image_data& a, const image_data& b, float tolerance) {
+double equal_fraction(
+    const image_data& a, const image_data& b, float tolerance) {
   auto equal = 0;
   for (size_t i = 0; i < a.pixels.size(); i++) {
     auto pa = a.pixels[i], pb = b.pixels[i];
-    equal += std::abs(pa.x - pb.x) <= tolerance && std::abs(pa.y - pb.y) <= tolerance &&
-             std::abs(pa.z - pb.z) <= tolerance && std::abs(pa.w - pb.w) <= tolerance;
+    equal += std::abs(pa.x - pb.x) <= tolerance &&
+             std::abs(pa.y - pb.y) <= tolerance &&
+             std::abs(pa.z - pb.z) <= tolerance &&
+             std::abs(pa.w - pb.w) <= tolerance;
   }
   return (double)equal / a.pixels.size();
 }
@@ -49,7 +52,8 @@ TEST_CASE("render: default tracer and reference mode agree on normals") {
     params.accel      = accel_type::none;
     auto reference    = trace_image(scene, params);
     CHECK(coverage(fast) > 0.5);
-    CHECK(coverage(fast) == doctest::Approx(coverage(reference)).epsilon(0.002));
+    CHECK(
+        coverage(fast) == doctest::Approx(coverage(reference)).epsilon(0.002));
     CHECK(equal_fraction(fast, reference, 1 / 255.0f) >= 0.995);
     CHECK(equal_fraction(fast, reference, 0.02f) >= 0.999);
   }
@@ -93,7 +97,8 @@ int count_holes(const image_data& image) {
       auto neighbours = std::vector<vec4f>{};
       for (auto dj = -1; dj <= 1; dj++)
         for (auto di = -1; di <= 1; di++)
-          if (di != 0 || dj != 0) neighbours.push_back(pixel(image, i + di, j + dj));
+          if (di != 0 || dj != 0)
+            neighbours.push_back(pixel(image, i + di, j + dj));
       auto misses = 0, disagree = 0;
       auto spread = 0.0f;
       for (auto& n : neighbours) {
@@ -102,7 +107,8 @@ int count_holes(const image_data& image) {
         for (auto& m : neighbours) spread = std::max(spread, l1(n, m));
       }
       if (centre.w == 0 && misses == 0) holes++;
-      if (centre.w == 1 && misses == 0 && disagree == 8 && spread < 0.3f) holes++;
+      if (centre.w == 1 && misses == 0 && disagree == 8 && spread < 0.3f)
+        holes++;
     }
   }
   return holes;
@@ -111,7 +117,8 @@ int count_holes(const image_data& image) {
 }  // namespace
 
 TEST_CASE("render: seed scenes, normals without holes on grids") {
-  for (auto name : {"06_gridsdf/gridsdf.json", "07_sdfunction/sdfunction.json"}) {
+  for (auto name :
+      {"06_gridsdf/gridsdf.json", "07_sdfunction/sdfunction.json"}) {
     INFO(name);
     auto warnings     = std::vector<std::string>{};
     auto scene        = load_scene(seed_scene(name), warnings);
@@ -132,10 +139,10 @@ TEST_CASE("render: seed scenes, normals without holes on grids") {
 }
 
 TEST_CASE("render: seed grid scene path traced, no NaN, lit") {
-  auto warnings     = std::vector<std::string>{};
-  auto scene        = load_scene(seed_scene("06_gridsdf/gridsdf.json"), warnings);
-  auto params       = trace_params{};
-  params.camera     = find_camera(scene, "");
+  auto warnings = std::vector<std::string>{};
+  auto scene    = load_scene(seed_scene("06_gridsdf/gridsdf.json"), warnings);
+  auto params   = trace_params{};
+  params.camera = find_camera(scene, "");
   params.resolution = 120;
   params.samples    = 4;
   auto image        = trace_image(scene, params);

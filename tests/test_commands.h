@@ -34,7 +34,8 @@ inline std::string program_path(const std::string& name) {
   return std::string{IMPLICIT_BINARY_DIR} + "/" + name;
 }
 
-inline std::string example_scene(const std::string& name = "sdfunction/sdfunction.json") {
+inline std::string example_scene(
+    const std::string& name = "sdfunction/sdfunction.json") {
   return std::string{IMPLICIT_SOURCE_DIR} + "/examples/" + name;
 }
 

@@ -48,7 +48,7 @@ std::string find_program(const std::string& name) {
 // An Xvfb server on a display number it picks itself (-displayfd), so tests
 // running in parallel never collide; killed when the test ends.
 struct xvfb_server {
-  xvfb_server(const xvfb_server&) = delete;
+  xvfb_server(const xvfb_server&)            = delete;
   xvfb_server& operator=(const xvfb_server&) = delete;
   explicit xvfb_server(const std::string& program) {
     int fds[2];
@@ -91,7 +91,8 @@ struct xvfb_server {
 // the size of the screenshot.
 image_rect viewer_rect(const image_data& screenshot, vec2i image_size) {
   return fit_image(image_size, {(float)viewer_panel_width, 0},
-      {(float)(screenshot.width - viewer_panel_width), (float)screenshot.height});
+      {(float)(screenshot.width - viewer_panel_width),
+          (float)screenshot.height});
 }
 
 // The image as the viewer shows it: the window pixel at the middle of each
@@ -135,9 +136,9 @@ double deviation(const image_data& image) {
 
 TEST_CASE("viewer: without a display --interactive fails with one line") {
   // The scene does not exist: the display is checked before loading.
-  auto result = run_command("env -u DISPLAY -u WAYLAND_DISPLAY " +
-                            ypathtrace_path() +
-                            " --scene does-not-exist.json --interactive");
+  auto result =
+      run_command("env -u DISPLAY -u WAYLAND_DISPLAY " + ypathtrace_path() +
+                  " --scene does-not-exist.json --interactive");
   CHECK(result.status == 1);
   CHECK(result.output.find("run without --interactive") != std::string::npos);
   CHECK(result.output.find("does-not-exist") == std::string::npos);
@@ -148,8 +149,9 @@ TEST_CASE("viewer: scripted run under Xvfb renders, accumulates and orbits") {
   auto xvfb = find_program("Xvfb");
   if (xvfb.empty()) {
     // CTest reports this test as skipped (SKIP_REGULAR_EXPRESSION).
-    std::printf("IMPLICIT_TEST_SKIPPED: Xvfb is not installed "
-                "(scripts/install_deps.sh installs it)\n");
+    std::printf(
+        "IMPLICIT_TEST_SKIPPED: Xvfb is not installed "
+        "(scripts/install_deps.sh installs it)\n");
     std::fflush(stdout);
     return;
   }
@@ -205,13 +207,15 @@ TEST_CASE("viewer: scripted run under Xvfb renders, accumulates and orbits") {
 
   // A drag to the right turns the camera: most pixels change, and the image
   // is still a picture.
-  auto orbit  = run_viewer(" --samples 4 --orbit 60,0 --orbit-frame 2", "orbit4.tga");
+  auto orbit =
+      run_viewer(" --samples 4 --orbit 60,0 --orbit-frame 2", "orbit4.tga");
   auto shownO = shown_image(orbit, size);
   CHECK(count_different(shownO, shown4) > size.x * size.y / 2);
   CHECK(deviation(shownO) > 0.05);
   // The panel is drawn: its strip is not a flat colour.
   auto panel = make_image(viewer_panel_width, shot4.height);
   for (auto j = 0; j < panel.height; j++)
-    for (auto i = 0; i < panel.width; i++) pixel(panel, i, j) = pixel(shot4, i, j);
+    for (auto i = 0; i < panel.width; i++)
+      pixel(panel, i, j) = pixel(shot4, i, j);
   CHECK(deviation(panel) > 0.01);
 }

@@ -25,7 +25,8 @@ std::string shared_sample(const std::string& name) {
 }  // namespace
 
 TEST_CASE("ysdf: info reports dims, spacing and the surface") {
-  auto result = run_ysdf("info " + shared_sample("sdfgen_torus_R0.6_r0.2_dx0.04_pad2.sdf"));
+  auto result = run_ysdf(
+      "info " + shared_sample("sdfgen_torus_R0.6_r0.2_dx0.04_pad2.sdf"));
   INFO(result.output);
   CHECK(result.status == 0);
   CHECK(result.output.find("43 x 44 x 14") != std::string::npos);
@@ -85,8 +86,9 @@ TEST_CASE("ysdf: errors are one line and exit 1") {
   result = run_ysdf("info " + (dir / "missing.vdb").string());
   CHECK(result.status != 0);
   CHECK(result.output.find("missing.vdb") != std::string::npos);
-  result = run_ysdf("convert " + shared_sample("mitsuba_sdfgrid_sphere_48.vol") + " " +
-                    (dir / "out.xyz").string());
+  result =
+      run_ysdf("convert " + shared_sample("mitsuba_sdfgrid_sphere_48.vol") +
+               " " + (dir / "out.xyz").string());
   CHECK(result.status != 0);
   CHECK(!std::filesystem::exists(dir / "out.xyz"));
 }

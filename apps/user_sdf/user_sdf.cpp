@@ -14,10 +14,10 @@ using namespace implicit;
 
 // An sdfunction placed at `origin` (world -> local is a translation).
 static sdf_function_data make_box(vec3f size, vec3f corner, int material) {
-  auto node     = sdf_node{};
-  node.type     = sdf_type::box;
-  node.size     = size;
-  auto function = sdf_function_data{};
+  auto node                 = sdf_node{};
+  node.type                 = sdf_type::box;
+  node.size                 = size;
+  auto function             = sdf_function_data{};
   function.program          = make_primitive_program(node);
   function.local_from_world = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -corner};
   function.material         = material;
@@ -39,7 +39,8 @@ int main(int argc, char** argv) {
   shell.roughness = 0.3f;
   scene.materials = {floor, light, shell};
   scene.sdfunctions.push_back(make_box({4, 1e-4f, 4}, {-2, 0, -2}, 0));
-  scene.sdfunctions.push_back(make_box({0.6f, 1e-4f, 0.6f}, {-0.3f, 1.6f, -0.3f}, 1));
+  scene.sdfunctions.push_back(
+      make_box({0.6f, 1e-4f, 0.6f}, {-0.3f, 1.6f, -0.3f}, 1));
 
   // Gyroid sheet intersected with a ball. The gyroid's gradient is at most
   // sqrt(6)*k for frequency k, so its Lipschitz bound is that; the max with
@@ -49,8 +50,8 @@ int main(int argc, char** argv) {
   user.name = "gyroid";
   user.eval = [k](vec3f p) {
     auto q      = p * k;
-    auto gyroid = std::sin(q.x) * std::cos(q.y) + std::sin(q.y) * std::cos(q.z) +
-                  std::sin(q.z) * std::cos(q.x);
+    auto gyroid = std::sin(q.x) * std::cos(q.y) +
+                  std::sin(q.y) * std::cos(q.z) + std::sin(q.z) * std::cos(q.x);
     auto sheet = (std::abs(gyroid) - 0.3f) / k;
     auto ball  = length(p) - 0.5f;
     return std::max(sheet, ball);

@@ -26,20 +26,20 @@ using namespace implicit;
 // -----------------------------------------------------------------------------
 
 struct app_options {
-  std::string  scene       = "scene.json";
-  std::string  output      = "out.png";
-  std::string  camera      = "";
-  std::string  shader      = "implicit";
-  std::string  accel       = "bvh";
-  std::string  mis         = "two";
-  trace_params params      = {};
-  float        exposure    = 0;
-  bool         filmic      = false;
+  std::string  scene         = "scene.json";
+  std::string  output        = "out.png";
+  std::string  camera        = "";
+  std::string  shader        = "implicit";
+  std::string  accel         = "bvh";
+  std::string  mis           = "two";
+  trace_params params        = {};
+  float        exposure      = 0;
+  bool         filmic        = false;
   bool         noimplicitmis = false;
-  int          threads     = 0;
-  int          savebatch   = 0;
-  bool         interactive = false;
-  bool         quiet       = false;
+  int          threads       = 0;
+  int          savebatch     = 0;
+  bool         interactive   = false;
+  bool         quiet         = false;
   // Viewer automation (tests and screenshots).
   int                frames      = 0;
   std::string        screenshot  = "";
@@ -55,80 +55,110 @@ static T parse_enum(const std::string& option, const std::string& value,
     if (names[i] == value) return (T)i;
   auto valid = std::string{};
   for (auto& name : names) valid += (valid.empty() ? "" : ", ") + name;
-  throw CLI::ValidationError(option, "unknown value \"" + value + "\" (valid: " + valid + ")");
+  throw CLI::ValidationError(
+      option, "unknown value \"" + value + "\" (valid: " + valid + ")");
 }
 
 static void add_options(CLI::App& app, app_options& opts) {
   auto& p = opts.params;
-  app.add_option("--scene", opts.scene, "Scene file (JSON)")->capture_default_str();
+  app.add_option("--scene", opts.scene, "Scene file (JSON)")
+      ->capture_default_str();
   app.add_option("--output", opts.output,
-      "Output image (.png/.jpg tonemapped, .hdr/.exr linear)")->capture_default_str();
-  app.add_option("--camera", opts.camera, "Camera name (default: as Yocto/GL finds it)");
+         "Output image (.png/.jpg tonemapped, .hdr/.exr linear)")
+      ->capture_default_str();
+  app.add_option(
+      "--camera", opts.camera, "Camera name (default: as Yocto/GL finds it)");
   app.add_option("--shader", opts.shader,
-      "Shader: implicit, implicit_normal, eyelight, normal, position, color, "
-      "frontfacing, material, steps")->capture_default_str();
-  app.add_option("--resolution", p.resolution, "Image size along the longest side")
-      ->check(CLI::Range(1, 16384))->capture_default_str();
+         "Shader: implicit, implicit_normal, eyelight, normal, position, "
+         "color, "
+         "frontfacing, material, steps")
+      ->capture_default_str();
+  app.add_option(
+         "--resolution", p.resolution, "Image size along the longest side")
+      ->check(CLI::Range(1, 16384))
+      ->capture_default_str();
   app.add_option("--samples", p.samples, "Samples per pixel")
-      ->check(CLI::Range(1, 1 << 20))->capture_default_str();
+      ->check(CLI::Range(1, 1 << 20))
+      ->capture_default_str();
   app.add_option("--bounces", p.bounces, "Maximum path length")
-      ->check(CLI::Range(1, 1024))->capture_default_str();
+      ->check(CLI::Range(1, 1024))
+      ->capture_default_str();
   app.add_option("--clamp", p.clamp, "Clamp sample radiance to this value")
-      ->check(CLI::PositiveNumber)->capture_default_str();
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--seed", p.seed, "Random seed")->capture_default_str();
   app.add_option("--exposure", opts.exposure, "Exposure in stops (LDR output)")
-      ->check(CLI::Range(-100.0f, 100.0f))->capture_default_str();
-  app.add_flag("--filmic", opts.filmic, "Filmic tone curve (LDR output)");
-  app.add_flag("--envhidden", p.envhidden, "Hide the environment behind the scene");
-  app.add_flag("--tentfilter", p.tentfilter, "Tent pixel filter instead of box");
-  app.add_flag("--noimplicitmis", opts.noimplicitmis, "Disable light sampling (BSDF sampling only)");
-  app.add_option("--mis", opts.mis, "Light sampling: one (the seed's one-sample MIS) or two (two-sample, power heuristic)")
+      ->check(CLI::Range(-100.0f, 100.0f))
       ->capture_default_str();
-  app.add_option("--stmaxiter", p.march.max_iterations, "Sphere-tracing iteration cap")
-      ->check(CLI::Range(1, 1000000))->capture_default_str();
+  app.add_flag("--filmic", opts.filmic, "Filmic tone curve (LDR output)");
+  app.add_flag(
+      "--envhidden", p.envhidden, "Hide the environment behind the scene");
+  app.add_flag(
+      "--tentfilter", p.tentfilter, "Tent pixel filter instead of box");
+  app.add_flag("--noimplicitmis", opts.noimplicitmis,
+      "Disable light sampling (BSDF sampling only)");
+  app.add_option("--mis", opts.mis,
+         "Light sampling: one (the seed's one-sample MIS) or two (two-sample, "
+         "power heuristic)")
+      ->capture_default_str();
+  app.add_option(
+         "--stmaxiter", p.march.max_iterations, "Sphere-tracing iteration cap")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
   app.add_option("--accel", opts.accel,
-      "Intersection: bvh (objects marched in their own boxes) or none (the seed's minimum over all objects)")
+         "Intersection: bvh (objects marched in their own boxes) or none (the "
+         "seed's minimum over all objects)")
       ->capture_default_str();
   app.add_option("--threads", opts.threads, "Worker threads (0: all cores)")
-      ->check(CLI::Range(0, 4096))->capture_default_str();
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
   app.add_option("--savebatch", opts.savebatch,
-      "Also save the image every N samples as <output>-s<samples>.<ext>")
+         "Also save the image every N samples as <output>-s<samples>.<ext>")
       ->check(CLI::Range(0, 1 << 20));
-  app.add_flag("--interactive", opts.interactive, "Open the interactive viewer");
+  app.add_flag(
+      "--interactive", opts.interactive, "Open the interactive viewer");
   app.add_flag("--quiet", opts.quiet, "No progress output");
   auto automation = "Viewer automation";
   app.add_option("--frames", opts.frames,
-      "Close the viewer after N frames, once every sample is rendered")
-      ->check(CLI::Range(0, 1 << 30))->group(automation);
+         "Close the viewer after N frames, once every sample is rendered")
+      ->check(CLI::Range(0, 1 << 30))
+      ->group(automation);
   app.add_option("--screenshot", opts.screenshot,
-      "Save the viewer's last frame to this image")->group(automation);
+         "Save the viewer's last frame to this image")
+      ->group(automation);
   app.add_option("--orbit", opts.orbit,
-      "Drag the viewer's camera by DX,DY pixels at frame --orbit-frame")
-      ->delimiter(',')->expected(2)->group(automation);
+         "Drag the viewer's camera by DX,DY pixels at frame --orbit-frame")
+      ->delimiter(',')
+      ->expected(2)
+      ->group(automation);
   app.add_option("--orbit-frame", opts.orbit_frame, "Frame of the --orbit drag")
-      ->check(CLI::Range(1, 1 << 30))->group(automation);
+      ->check(CLI::Range(1, 1 << 30))
+      ->group(automation);
 }
 
 // Check the options that CLI11 cannot check alone.
 static void validate_options(app_options& opts) {
-  auto& p  = opts.params;
-  p.shader = parse_enum<shader_type>("--shader", opts.shader, shader_type_names);
-  p.accel  = parse_enum<accel_type>("--accel", opts.accel, accel_type_names);
-  p.mis    = parse_enum<mis_type>("--mis", opts.mis, mis_type_names);
+  auto& p = opts.params;
+  p.shader =
+      parse_enum<shader_type>("--shader", opts.shader, shader_type_names);
+  p.accel = parse_enum<accel_type>("--accel", opts.accel, accel_type_names);
+  p.mis   = parse_enum<mis_type>("--mis", opts.mis, mis_type_names);
   p.implicit_mis = !opts.noimplicitmis;
   if (!opts.interactive &&
       (opts.frames > 0 || !opts.screenshot.empty() || !opts.orbit.empty()))
     throw CLI::ValidationError(
         "--frames", "--frames, --screenshot and --orbit need --interactive");
   if (!opts.screenshot.empty() && opts.frames == 0)
-    throw CLI::ValidationError(
-        "--screenshot", "--screenshot needs --frames (it saves the last frame)");
+    throw CLI::ValidationError("--screenshot",
+        "--screenshot needs --frames (it saves the last frame)");
   auto ext = opts.output.substr(opts.output.find_last_of('.') + 1);
   for (auto& c : ext) c = (char)std::tolower(c);
   if (opts.output.find('.') == std::string::npos ||
-      (ext != "png" && ext != "jpg" && ext != "jpeg" && ext != "hdr" && ext != "exr"))
-    throw CLI::ValidationError("--output",
-        "unsupported image format \"" + opts.output + "\" (use .png, .jpg, .hdr or .exr)");
+      (ext != "png" && ext != "jpg" && ext != "jpeg" && ext != "hdr" &&
+          ext != "exr"))
+    throw CLI::ValidationError(
+        "--output", "unsupported image format \"" + opts.output +
+                        "\" (use .png, .jpg, .hdr or .exr)");
 }
 
 // Name of a batch image: out.png -> out-s0016.png.
@@ -171,7 +201,8 @@ static int run(app_options& opts) {
 #endif
   auto warnings = std::vector<std::string>{};
   auto scene    = load_scene(opts.scene, warnings);
-  for (auto& warning : warnings) std::fprintf(stderr, "warning: %s\n", warning.c_str());
+  for (auto& warning : warnings)
+    std::fprintf(stderr, "warning: %s\n", warning.c_str());
 
   auto& params = opts.params;
   auto  accel  = make_accel(scene, params.accel, params.march);
@@ -181,11 +212,13 @@ static int run(app_options& opts) {
 
   auto has_emitters = !lights.lights.empty();
   for (auto& object : accel.objects)
-    if (object.material >= 0 && max(scene.materials[object.material].emission) > 0)
+    if (object.material >= 0 &&
+        max(scene.materials[object.material].emission) > 0)
       has_emitters = true;
   if (is_lit_shader(params.shader) && !has_emitters) {
     std::fprintf(stderr,
-        "warning: the scene has no lights; rendering with the eyelight shader\n");
+        "warning: the scene has no lights; rendering with the eyelight "
+        "shader\n");
     params.shader = shader_type::eyelight;
   }
 
@@ -213,7 +246,9 @@ static int run(app_options& opts) {
 }
 
 int main(int argc, char** argv) {
-  auto app  = CLI::App{"Render scenes made of implicit surfaces (SDFs and SDF grids).", "ypathtrace"};
+  auto app =
+      CLI::App{"Render scenes made of implicit surfaces (SDFs and SDF grids).",
+          "ypathtrace"};
   auto opts = app_options{};
   add_options(app, opts);
   try {
@@ -223,7 +258,8 @@ int main(int argc, char** argv) {
     std::printf("%s", app.help().c_str());
     return 0;
   } catch (const CLI::ParseError& error) {
-    std::fprintf(stderr, "ypathtrace: error: %s\n\n%s", error.what(), app.help().c_str());
+    std::fprintf(stderr, "ypathtrace: error: %s\n\n%s", error.what(),
+        app.help().c_str());
     return 2;
   }
   try {

@@ -191,8 +191,7 @@ float parse_float(const std::string& text, const std::string& spec) {
     auto used  = size_t{0};
     auto value = std::stof(text, &used);
     if (used == text.size() && std::isfinite(value)) return value;
-  } catch (const std::exception&) {
-  }
+  } catch (const std::exception&) {}
   throw io_error("--shape \"" + spec + "\": '" + text + "' is not a number");
 }
 
@@ -367,9 +366,7 @@ void run_from_mesh(const std::string& input, const std::string& output,
   auto grid = grid_data{};
   try {
     grid = mesh_to_grid(mesh, voxel, pad, shell);
-  } catch (const io_error& error) {
-    throw_io_error(input, error.what());
-  }
+  } catch (const io_error& error) { throw_io_error(input, error.what()); }
   note(r, "converted in " + std::to_string(elapsed(start)) + " s");
   save_and_report(r, output, grid, binary);
 }
@@ -392,8 +389,8 @@ void run_to_mesh(const std::string& input, const std::string& output,
 }  // namespace
 
 int main(int argc, const char** argv) {
-  auto app = CLI::App{
-      "ysdf: inspect, convert, bake and mesh SDF grids", "ysdf"};
+  auto app =
+      CLI::App{"ysdf: inspect, convert, bake and mesh SDF grids", "ysdf"};
   app.require_subcommand(1);
   auto r     = reporter{};
   r.terminal = isatty(fileno(stderr)) != 0;
@@ -402,14 +399,14 @@ int main(int argc, const char** argv) {
   auto in_file = std::string{}, out_file = std::string{};
   auto binary = false, text = false;
 
-  auto info = app.add_subcommand(
-      "info", "Print a grid's header and statistics");
+  auto info =
+      app.add_subcommand("info", "Print a grid's header and statistics");
   info->add_option("file", in_file, "Grid file")->required();
   info->add_flag("--binary", binary, "Read a .sdf as skanti binary");
   info->add_flag("--text", text, "Read a .sdf as SDFGen text");
 
-  auto convert = app.add_subcommand(
-      "convert", "Convert a grid between formats");
+  auto convert =
+      app.add_subcommand("convert", "Convert a grid between formats");
   convert->add_option("input", in_file, "Grid to read")->required();
   convert->add_option("output", out_file, "Grid to write (.sdf, .vdb, .vol)")
       ->required();
@@ -447,7 +444,8 @@ int main(int argc, const char** argv) {
   from_mesh->add_option(
       "--pad", pad, "Padding in voxels around the mesh (>= 1)");
   from_mesh->add_option("--shell", shell,
-      "Half thickness of a shell around an open mesh (unsigned distance - shell)");
+      "Half thickness of a shell around an open mesh (unsigned distance - "
+      "shell)");
   from_mesh->add_flag("--binary", binary, "Write .sdf as skanti binary");
 
   auto to_mesh = app.add_subcommand(

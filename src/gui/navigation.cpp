@@ -80,8 +80,7 @@ image_rect fit_image(vec2i image_size, vec2f area_min, vec2f area_size) {
   if (image_size.x <= 0 || image_size.y <= 0 || area_size.x <= 0 ||
       area_size.y <= 0)
     return rect;
-  rect.scale = std::min(
-      area_size.x / image_size.x, area_size.y / image_size.y);
+  rect.scale = std::min(area_size.x / image_size.x, area_size.y / image_size.y);
   rect.size  = vec2f{(float)image_size.x, (float)image_size.y} * rect.scale;
   auto min   = area_min + (area_size - rect.size) * 0.5f;
   rect.min   = {std::floor(min.x), std::floor(min.y)};

@@ -36,7 +36,8 @@ TEST_CASE("navigation: orbit turns about the focus point by delta / 100") {
   // Same focus point and distance, orthonormal frame with a level x axis.
   check_close(focus_point(camera), center);
   CHECK(camera.focus == doctest::Approx(focus).epsilon(1e-6));
-  CHECK(distance(camera.frame.o, center) == doctest::Approx(focus).epsilon(1e-5));
+  CHECK(
+      distance(camera.frame.o, center) == doctest::Approx(focus).epsilon(1e-5));
   CHECK(length(camera.frame.x) == doctest::Approx(1).epsilon(1e-6));
   CHECK(dot(camera.frame.x, camera.frame.z) == doctest::Approx(0).scale(1e-6));
   CHECK(std::abs(camera.frame.x.y) <= 1e-6f);
@@ -44,19 +45,22 @@ TEST_CASE("navigation: orbit turns about the focus point by delta / 100") {
   auto z1 = camera.frame.z;
   CHECK(std::atan2(z1.z, z1.x) - std::atan2(z0.z, z0.x) ==
         doctest::Approx(0.3).epsilon(1e-5));
-  CHECK(std::acos(z1.y) - std::acos(z0.y) == doctest::Approx(-0.2).epsilon(1e-5));
+  CHECK(
+      std::acos(z1.y) - std::acos(z0.y) == doctest::Approx(-0.2).epsilon(1e-5));
 }
 
 TEST_CASE("navigation: orbit stops short of the poles") {
   auto camera = look_at({0, 0, 5}, {0, 0, 0});
   navigate_camera(camera, navigation_mode::orbit, {0, 1000}, 0);
   // theta clamped to pi - 0.001: looking up from just below the focus point.
-  CHECK(camera.frame.z.y == doctest::Approx(std::cos(3.14159265f - 0.001f)).epsilon(1e-6));
+  CHECK(camera.frame.z.y ==
+        doctest::Approx(std::cos(3.14159265f - 0.001f)).epsilon(1e-6));
   CHECK(std::isfinite(camera.frame.x.x));
   check_close(focus_point(camera), {0, 0, 0});
 }
 
-TEST_CASE("navigation: pan moves camera and focus point by delta * focus / 200") {
+TEST_CASE(
+    "navigation: pan moves camera and focus point by delta * focus / 200") {
   auto camera = look_at({0, 0, 4}, {0, 0, 0});  // x = +x, y = +y
   CHECK(navigate_camera(camera, navigation_mode::pan, {50, 20}, 0));
   // The scene follows the cursor: right drag moves the camera left; a drag
@@ -110,7 +114,8 @@ TEST_CASE("navigation: fit_image centres and scales, pixels map back") {
   }
   CHECK(mismatches == 0);
   // A preview 8 times smaller shown in the same rectangle.
-  auto ij = image_pixel_at(rect, {30, 13}, {rect.min.x + rect.size.x - 1, rect.min.y + 1});
+  auto ij = image_pixel_at(
+      rect, {30, 13}, {rect.min.x + rect.size.x - 1, rect.min.y + 1});
   CHECK(ij.x == 29);
   CHECK(ij.y == 0);
   // Outside: the panel, above the image, past the right edge.

@@ -17,16 +17,16 @@ bool trace_samples_cancellable(trace_state& state, const scene_data& scene,
     const accel_data& accel, const lights_data& lights,
     const trace_params& params, const std::atomic<int64_t>& latest,
     int64_t job) {
-  return trace_samples_until(state, scene, accel, lights, params, [&] {
-    return latest.load(std::memory_order_relaxed) != job;
-  });
+  return trace_samples_until(state, scene, accel, lights, params,
+      [&] { return latest.load(std::memory_order_relaxed) != job; });
 }
 
 // Resolution / pratio, one sample.
 trace_params preview_params(const trace_params& params) {
-  auto preview       = params;
-  preview.resolution = std::max(1, params.resolution / std::max(1, params.pratio));
-  preview.samples    = 1;
+  auto preview = params;
+  preview.resolution =
+      std::max(1, params.resolution / std::max(1, params.pratio));
+  preview.samples = 1;
   return preview;
 }
 
@@ -52,8 +52,8 @@ static double elapsed(std::chrono::steady_clock::time_point start) {
 // Preview, then passes until all samples are done or a newer job arrives.
 static void render_job_passes(
     render_worker& worker, const render_job& job, int64_t id) {
-  auto& scene  = *worker.scene;
-  auto& params = job.params;
+  auto& scene                  = *worker.scene;
+  auto& params                 = job.params;
   scene.cameras[params.camera] = job.camera;
   // The only march parameter the viewer edits: the others set hit_min in
   // make_accel() and must stay as they were.
@@ -73,7 +73,8 @@ static void render_job_passes(
     if (!trace_samples_cancellable(state, scene, *worker.accel, *worker.lights,
             params, worker.latest, id))
       return;
-    publish(worker, id, get_render(state), state.samples, false, elapsed(start));
+    publish(
+        worker, id, get_render(state), state.samples, false, elapsed(start));
   }
 }
 
@@ -97,8 +98,8 @@ static void run_worker(render_worker& worker) {
 render_worker::~render_worker() { stop_worker(*this); }
 
 // Keep the scene, accel and lights, start the thread.
-void start_worker(render_worker& worker, scene_data& scene,
-    accel_data& accel, const lights_data& lights) {
+void start_worker(render_worker& worker, scene_data& scene, accel_data& accel,
+    const lights_data& lights) {
   stop_worker(worker);
   worker.scene  = &scene;
   worker.accel  = &accel;

@@ -61,8 +61,8 @@ struct render_update {
 // scene's camera slots and the accel's iteration cap, between passes;
 // nothing else may touch them while it runs.
 struct render_worker {
-  render_worker() = default;
-  render_worker(const render_worker&) = delete;
+  render_worker()                                = default;
+  render_worker(const render_worker&)            = delete;
   render_worker& operator=(const render_worker&) = delete;
   ~render_worker();  // stops and joins the thread
 
@@ -84,8 +84,8 @@ struct render_worker {
 };
 
 // Start the thread. The scene, accel and lights must outlive the worker.
-void start_worker(render_worker& worker, scene_data& scene,
-    accel_data& accel, const lights_data& lights);
+void start_worker(render_worker& worker, scene_data& scene, accel_data& accel,
+    const lights_data& lights);
 
 // Cancel the current render and start `job`; returns its id at once.
 int64_t restart_render(render_worker& worker, const render_job& job);

@@ -25,8 +25,8 @@ struct example_scene {
 };
 
 void load_example(example_scene& example, trace_params& params) {
-  example.scene = load_scene(
-      std::string{IMPLICIT_SOURCE_DIR} + "/examples/sdfunction/sdfunction.json");
+  example.scene = load_scene(std::string{IMPLICIT_SOURCE_DIR} +
+                             "/examples/sdfunction/sdfunction.json");
   example.accel = make_accel(example.scene, params.accel, params.march);
   add_missing_camera(example.scene, example.accel.bounds);
   params.camera  = find_camera(example.scene, "");
@@ -84,12 +84,13 @@ TEST_CASE("render_worker: a cancellable pass is a trace_samples pass") {
   auto example      = example_scene{};
   load_example(example, params);
   auto& [scene, accel, lights] = example;
-  auto reference = make_state(scene, params);
-  auto state     = make_state(scene, params);
-  auto latest    = std::atomic<int64_t>{7};
+  auto reference               = make_state(scene, params);
+  auto state                   = make_state(scene, params);
+  auto latest                  = std::atomic<int64_t>{7};
   for (auto pass = 0; pass < 2; pass++) {
     trace_samples(reference, scene, accel, lights, params);
-    CHECK(trace_samples_cancellable(state, scene, accel, lights, params, latest, 7));
+    CHECK(trace_samples_cancellable(
+        state, scene, accel, lights, params, latest, 7));
   }
   CHECK(state.samples == 2);
   CHECK(same_pixels(get_render(state), get_render(reference)));
@@ -98,7 +99,8 @@ TEST_CASE("render_worker: a cancellable pass is a trace_samples pass") {
   // A newer job: no tile is traced and the sample is not counted.
   auto fresh = make_state(scene, params);
   latest     = 8;
-  CHECK_FALSE(trace_samples_cancellable(fresh, scene, accel, lights, params, latest, 7));
+  CHECK_FALSE(trace_samples_cancellable(
+      fresh, scene, accel, lights, params, latest, 7));
   CHECK(fresh.samples == 0);
   auto traced = 0;
   for (auto& p : fresh.accumulated) traced += (p.x != 0 || p.w != 0);
@@ -120,21 +122,23 @@ TEST_CASE("render_worker: preview parameters") {
   CHECK(preview_params(params).resolution == 720);
 }
 
-TEST_CASE("render_worker: preview, then every sample, ending on the CLI image") {
+TEST_CASE(
+    "render_worker: preview, then every sample, ending on the CLI image") {
   auto params       = trace_params{};
   params.resolution = 48;
   params.samples    = 3;
   params.pratio     = 4;
   auto example      = example_scene{};
   load_example(example, params);
-  auto expected = render_cli(example.scene, example.accel, example.lights, params);
-  auto camera   = example.scene.cameras[params.camera];
+  auto expected =
+      render_cli(example.scene, example.accel, example.lights, params);
+  auto camera = example.scene.cameras[params.camera];
 
   auto worker = render_worker{};
   start_worker(worker, example.scene, example.accel, example.lights);
   auto job      = restart_render(worker, {params, camera});
   auto previews = 0, backwards = 0;
-  auto last     = wait_finished(worker, job, params.samples, previews, backwards);
+  auto last = wait_finished(worker, job, params.samples, previews, backwards);
   CHECK(previews <= 1);
   CHECK(backwards == 0);
   CHECK(last.samples == 3);
@@ -159,8 +163,8 @@ TEST_CASE("render_worker: preview, then every sample, ending on the CLI image") 
       continue;
     }
     if (update.job != job) continue;
-    auto size = camera_resolution(
-        camera, update.preview ? 1 : params.resolution);
+    auto size =
+        camera_resolution(camera, update.preview ? 1 : params.resolution);
     sizes_ok &= update.image.width == size.x && update.image.height == size.y;
     if (!update.preview) break;
   }
@@ -187,11 +191,11 @@ TEST_CASE("render_worker: a new job cancels the running one") {
 
   auto moved = camera;
   navigate_camera(moved, navigation_mode::orbit, {40, 10}, 0);
-  auto fast                   = params;
-  fast.samples                = 2;
-  fast.march.max_iterations   = 3;  // the worker must set the accel's cap
-  fast.shader                 = shader_type::normal;
-  auto job                    = restart_render(worker, {fast, moved});
+  auto fast                 = params;
+  fast.samples              = 2;
+  fast.march.max_iterations = 3;  // the worker must set the accel's cap
+  fast.shader               = shader_type::normal;
+  auto job                  = restart_render(worker, {fast, moved});
   auto previews = 0, backwards = 0;
   auto last = wait_finished(worker, job, fast.samples, previews, backwards);
   stop_worker(worker);
@@ -200,15 +204,17 @@ TEST_CASE("render_worker: a new job cancels the running one") {
 
   // The same image rendered directly with the moved camera and the
   // iteration cap, and different from the unmoved camera's.
-  auto scene                    = example.scene;  // has `moved` in its slot
+  auto scene = example.scene;  // has `moved` in its slot
   CHECK(scene.cameras[params.camera].frame.o == moved.frame.o);
   auto& capped = example.accel;  // the worker set its cap
   CHECK(capped.march.max_iterations == 3);
   auto expected = render_cli(scene, capped, example.lights, fast);
   CHECK(same_pixels(last.image, expected));
-  scene.cameras[params.camera]  = camera;
-  CHECK_FALSE(same_pixels(last.image, render_cli(scene, capped, example.lights, fast)));
+  scene.cameras[params.camera] = camera;
+  CHECK_FALSE(
+      same_pixels(last.image, render_cli(scene, capped, example.lights, fast)));
   capped.march.max_iterations = params.march.max_iterations;
-  auto uncapped = render_cli(example.scene, example.accel, example.lights, fast);
+  auto uncapped =
+      render_cli(example.scene, example.accel, example.lights, fast);
   CHECK_FALSE(same_pixels(last.image, uncapped));
 }

@@ -53,8 +53,8 @@ static std::string glfw_error() {
 // Owner of the window, the OpenGL context and ImGui; tears them down in
 // reverse order of creation, also when an exception leaves run_viewer().
 struct gl_session {
-  gl_session() = default;
-  gl_session(const gl_session&) = delete;
+  gl_session()                             = default;
+  gl_session(const gl_session&)            = delete;
   gl_session& operator=(const gl_session&) = delete;
   ~gl_session() {
     if (opengl3) ImGui_ImplOpenGL3_Shutdown();
@@ -74,15 +74,15 @@ struct gl_session {
 static void open_window(
     gl_session& session, const std::string& title, vec2i size) {
   if (glfwInit() != GLFW_TRUE)
-    throw io_error("cannot open the interactive viewer: " + glfw_error() +
-                   no_window_hint);
+    throw io_error(
+        "cannot open the interactive viewer: " + glfw_error() + no_window_hint);
   session.initialized = true;
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
-  session.window = glfwCreateWindow(
-      size.x, size.y, title.c_str(), nullptr, nullptr);
+  session.window =
+      glfwCreateWindow(size.x, size.y, title.c_str(), nullptr, nullptr);
   if (session.window == nullptr)
     throw io_error(
         "cannot open the interactive viewer: no OpenGL 3.3 core window (" +
@@ -91,17 +91,21 @@ static void open_window(
   glfwSwapInterval(1);
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
-  session.imgui = true;
+  session.imgui              = true;
   ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the user's folder
   ImGui::StyleColorsDark();
   session.glfw = ImGui_ImplGlfw_InitForOpenGL(session.window, true);
   if (!session.glfw)
-    throw io_error("cannot open the interactive viewer: ImGui's GLFW backend "
-                   "failed" + no_window_hint);
+    throw io_error(
+        "cannot open the interactive viewer: ImGui's GLFW backend "
+        "failed" +
+        no_window_hint);
   session.opengl3 = ImGui_ImplOpenGL3_Init("#version 330");
   if (!session.opengl3)
-    throw io_error("cannot open the interactive viewer: ImGui's OpenGL 3 "
-                   "backend failed" + no_window_hint);
+    throw io_error(
+        "cannot open the interactive viewer: ImGui's OpenGL 3 "
+        "backend failed" +
+        no_window_hint);
 }
 
 // -----------------------------------------------------------------------------
@@ -145,8 +149,8 @@ static void upload_image(display_texture& texture, const image_data& image,
     texture.width  = image.width;
     texture.height = image.height;
   } else {
-    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, image.width, image.height,
-        GL_RGBA, GL_UNSIGNED_BYTE, texture.bytes.data());
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, image.width, image.height, GL_RGBA,
+        GL_UNSIGNED_BYTE, texture.bytes.data());
   }
 }
 
@@ -157,13 +161,12 @@ static void save_screenshot(const std::string& filename, vec2i size) {
   auto bytes = std::vector<uint8_t>((size_t)size.x * size.y * 4);
   glReadBuffer(GL_BACK);
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(
-      0, 0, size.x, size.y, GL_RGBA, GL_UNSIGNED_BYTE, bytes.data());
+  glReadPixels(0, 0, size.x, size.y, GL_RGBA, GL_UNSIGNED_BYTE, bytes.data());
   auto image = make_image(size.x, size.y);
   for (auto j = 0; j < size.y; j++) {
     for (auto i = 0; i < size.x; i++) {
       // OpenGL's rows go bottom-up; the window has no meaningful alpha.
-      auto byte = &bytes[((size_t)(size.y - 1 - j) * size.x + i) * 4];
+      auto byte          = &bytes[((size_t)(size.y - 1 - j) * size.x + i) * 4];
       pixel(image, i, j) = {srgb_to_linear(byte_to_float(byte[0])),
           srgb_to_linear(byte_to_float(byte[1])),
           srgb_to_linear(byte_to_float(byte[2])), 1};
@@ -178,15 +181,15 @@ static void save_screenshot(const std::string& filename, vec2i size) {
 
 // What the interface thread owns.
 struct viewer_state {
-  trace_params             params   = {};
-  std::vector<camera_data> cameras  = {};  // navigated here, copied to jobs
-  float                    exposure = 0;
-  bool                     filmic   = false;
-  int64_t                  job      = 0;      // newest job posted
-  render_update            shown    = {};     // the image on screen
+  trace_params             params    = {};
+  std::vector<camera_data> cameras   = {};  // navigated here, copied to jobs
+  float                    exposure  = 0;
+  bool                     filmic    = false;
+  int64_t                  job       = 0;   // newest job posted
+  render_update            shown     = {};  // the image on screen
   bool                     has_image = false;
-  display_texture          texture  = {};
-  std::string              message  = "";     // result of the save button
+  display_texture          texture   = {};
+  std::string              message   = "";  // result of the save button
 };
 
 // Post the current parameters and camera as a new job.
@@ -236,8 +239,8 @@ static bool draw_render_settings(viewer_state& state) {
   auto  label  = camera_label(state, params.camera);
   if (ImGui::BeginCombo("camera", label.c_str())) {
     for (auto i = 0; i < (int)state.cameras.size(); i++) {
-      if (ImGui::Selectable(camera_label(state, i).c_str(),
-              i == params.camera) &&
+      if (ImGui::Selectable(
+              camera_label(state, i).c_str(), i == params.camera) &&
           i != params.camera) {
         params.camera = i;
         edited        = true;
@@ -249,34 +252,34 @@ static bool draw_render_settings(viewer_state& state) {
   edited |= ImGui::SliderInt("samples", &params.samples, 16, 4096);
   edited |= combo_enum("shader", params.shader, shader_type_names);
   edited |= ImGui::SliderInt("bounces", &params.bounces, 1, 128);
-  edited |= ImGui::SliderInt(
-      "st max iter", &params.march.max_iterations, 1, 4096);
+  edited |=
+      ImGui::SliderInt("st max iter", &params.march.max_iterations, 1, 4096);
   edited |= ImGui::Checkbox("implicit MIS", &params.implicit_mis);
   if (params.implicit_mis) {
     ImGui::SameLine();
     ImGui::SetNextItemWidth(80);
     edited |= combo_enum("mis", params.mis, mis_type_names);
   }
-  edited |= ImGui::SliderFloat("clamp", &params.clamp, 1, 10000, "%.1f",
-      ImGuiSliderFlags_Logarithmic);
+  edited |= ImGui::SliderFloat(
+      "clamp", &params.clamp, 1, 10000, "%.1f", ImGuiSliderFlags_Logarithmic);
   edited |= ImGui::Checkbox("envhidden", &params.envhidden);
   ImGui::SameLine();
   edited |= ImGui::Checkbox("tentfilter", &params.tentfilter);
   edited |= ImGui::SliderInt("pratio", &params.pratio, 1, 64);
   // Keep what the sliders' text entry (ctrl+click) could set out of range
   // within what the renderer accepts.
-  params.resolution = std::max(params.resolution, 1);
-  params.samples    = std::max(params.samples, 1);
-  params.bounces    = std::max(params.bounces, 1);
-  params.pratio     = std::max(params.pratio, 1);
-  params.clamp      = std::max(params.clamp, 1e-3f);
+  params.resolution           = std::max(params.resolution, 1);
+  params.samples              = std::max(params.samples, 1);
+  params.bounces              = std::max(params.bounces, 1);
+  params.pratio               = std::max(params.pratio, 1);
+  params.clamp                = std::max(params.clamp, 1e-3f);
   params.march.max_iterations = std::max(params.march.max_iterations, 1);
   return edited;
 }
 
 // The linear value of the pixel under the mouse.
-static void draw_inspector(const viewer_state& state, vec2f mouse,
-    const image_rect& rect) {
+static void draw_inspector(
+    const viewer_state& state, vec2f mouse, const image_rect& rect) {
   auto& image = state.shown.image;
   auto  ij    = image_pixel_at(rect, {image.width, image.height}, mouse);
   if (!state.has_image || ij.x < 0) {
@@ -284,7 +287,8 @@ static void draw_inspector(const viewer_state& state, vec2f mouse,
     return;
   }
   auto value = pixel(image, ij.x, ij.y);
-  ImGui::Text("pixel: %d %d%s", ij.x, ij.y, state.shown.preview ? " (preview)" : "");
+  ImGui::Text(
+      "pixel: %d %d%s", ij.x, ij.y, state.shown.preview ? " (preview)" : "");
   ImGui::Text("linear: %.4f %.4f %.4f", value.x, value.y, value.z);
   ImGui::Text("alpha: %.4f", value.w);
 }
@@ -302,10 +306,10 @@ static bool draw_panel(viewer_state& state, const viewer_params& viewer,
   auto& shown   = state.shown;
   auto  samples = shown.preview ? 0 : shown.samples;
   auto  overlay = shown.preview ? std::string{"preview"}
-                               : "sample " + std::to_string(samples) + "/" +
-                                    std::to_string(state.params.samples);
-  ImGui::ProgressBar((float)samples / state.params.samples, {-1, 0},
-      overlay.c_str());
+                                : "sample " + std::to_string(samples) + "/" +
+                                     std::to_string(state.params.samples);
+  ImGui::ProgressBar(
+      (float)samples / state.params.samples, {-1, 0}, overlay.c_str());
   if (state.has_image)
     ImGui::Text("%d x %d, %.3f s/pass", shown.image.width, shown.image.height,
         shown.seconds);
@@ -326,9 +330,7 @@ static bool draw_panel(viewer_state& state, const viewer_params& viewer,
     try {
       save_image(viewer.output, shown.image, state.exposure, state.filmic);
       state.message = "saved " + std::to_string(shown.samples) + " samples";
-    } catch (const std::exception& error) {
-      state.message = error.what();
-    }
+    } catch (const std::exception& error) { state.message = error.what(); }
   }
   if (!can_save) ImGui::EndDisabled();
   if (!state.message.empty()) ImGui::TextWrapped("%s", state.message.c_str());
@@ -356,19 +358,18 @@ static bool navigate(viewer_state& state) {
     auto mode = io.KeyShift  ? navigation_mode::pan
                 : io.KeyCtrl ? navigation_mode::dolly
                              : navigation_mode::orbit;
-    moved |= navigate_camera(
-        camera, mode, {io.MouseDelta.x, io.MouseDelta.y}, 0);
+    moved |=
+        navigate_camera(camera, mode, {io.MouseDelta.x, io.MouseDelta.y}, 0);
   }
   if (io.MouseWheel != 0)
-    moved |= navigate_camera(
-        camera, navigation_mode::dolly, {0, 0}, io.MouseWheel);
+    moved |=
+        navigate_camera(camera, navigation_mode::dolly, {0, 0}, io.MouseWheel);
   return moved;
 }
 
 // The window and the loop.
-void run_viewer(scene_data& scene, accel_data& accel,
-    const lights_data& lights, const trace_params& params,
-    const viewer_params& viewer) {
+void run_viewer(scene_data& scene, accel_data& accel, const lights_data& lights,
+    const trace_params& params, const viewer_params& viewer) {
   check_display();
   auto session = gl_session{};
   open_window(session, "ypathtrace - " + viewer.name, viewer.window);
@@ -404,7 +405,7 @@ void run_viewer(scene_data& scene, accel_data& accel,
     auto  rect   = fit_image({state.texture.width, state.texture.height},
            {(float)viewer_panel_width, 0},
            {window.x - viewer_panel_width, window.y});
-    auto restart_needed = draw_panel(state, viewer, window, mouse, rect);
+    auto  restart_needed = draw_panel(state, viewer, window, mouse, rect);
     restart_needed |= navigate(state);
     if (orbit && frame == viewer.orbit_frame)
       restart_needed |= navigate_camera(state.cameras[state.params.camera],

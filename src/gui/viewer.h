@@ -48,8 +48,7 @@ void check_display();
 // Open the window and run until it is closed (or the automation ends). The
 // scene's camera slots are overwritten as the user navigates. Throws
 // io_error when no window or OpenGL 3.3 context can be had.
-void run_viewer(scene_data& scene, accel_data& accel,
-    const lights_data& lights, const trace_params& params,
-    const viewer_params& viewer);
+void run_viewer(scene_data& scene, accel_data& accel, const lights_data& lights,
+    const trace_params& params, const viewer_params& viewer);
 
 }  // namespace implicit

@@ -210,9 +210,7 @@ static image_data load_exr(const std::string& filename) {
       for (auto& p : image.pixels) p.y = p.z = p.x;
     }
     return image;
-  } catch (const io_error&) {
-    throw;
-  } catch (const std::exception& error) {
+  } catch (const io_error&) { throw; } catch (const std::exception& error) {
     // OpenEXR throws Iex exceptions (and std::bad_alloc on absurd headers).
     throw_io_error(
         filename, std::string("cannot read image (") + error.what() + ")");
@@ -383,9 +381,7 @@ void save_image(const std::string& filename, const image_data& image,
       case image_format::unknown: break;
     }
     if (!encoded) fail("the encoder failed");
-  } catch (const io_error&) {
-    throw;
-  } catch (const std::exception& error) {
+  } catch (const io_error&) { throw; } catch (const std::exception& error) {
     fail(error.what());
   }
   if (std::ferror(file.get())) fail(errno_reason(errno));

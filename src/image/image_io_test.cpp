@@ -40,9 +40,7 @@ template <typename Func>
 static std::string error_of(Func&& f) {
   try {
     f();
-  } catch (const io_error& error) {
-    return error.what();
-  }
+  } catch (const io_error& error) { return error.what(); }
   return "";
 }
 

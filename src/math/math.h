@@ -56,7 +56,9 @@ inline vec2f operator*(vec2f a, vec2f b) { return {a.x * b.x, a.y * b.y}; }
 inline vec2f operator/(vec2f a, float b) { return {a.x / b, a.y / b}; }
 inline float dot(vec2f a, vec2f b) { return a.x * b.x + a.y * b.y; }
 inline float length(vec2f a) { return std::sqrt(dot(a, a)); }
-inline vec2f max(vec2f a, float b) { return {std::max(a.x, b), std::max(a.y, b)}; }
+inline vec2f max(vec2f a, float b) {
+  return {std::max(a.x, b), std::max(a.y, b)};
+}
 inline vec2f abs(vec2f a) { return {std::abs(a.x), std::abs(a.y)}; }
 
 // vec3f
@@ -85,7 +87,7 @@ inline vec3f& operator*=(vec3f& a, vec3f b) { return a = a * b; }
 inline vec3f& operator*=(vec3f& a, float b) { return a = a * b; }
 inline vec3f& operator/=(vec3f& a, float b) { return a = a / b; }
 inline bool   operator==(vec3f a, vec3f b) {
-  return a.x == b.x && a.y == b.y && a.z == b.z;
+    return a.x == b.x && a.y == b.y && a.z == b.z;
 }
 inline bool operator!=(vec3f a, vec3f b) { return !(a == b); }
 
@@ -101,7 +103,9 @@ inline vec3f normalize(vec3f a) {
   auto l = length(a);
   return l != 0 ? a / l : a;
 }
-inline vec3f abs(vec3f a) { return {std::abs(a.x), std::abs(a.y), std::abs(a.z)}; }
+inline vec3f abs(vec3f a) {
+  return {std::abs(a.x), std::abs(a.y), std::abs(a.z)};
+}
 inline vec3f min(vec3f a, vec3f b) {
   return {std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)};
 }
@@ -120,8 +124,12 @@ inline float min(vec3f a) { return std::min(a.x, std::min(a.y, a.z)); }
 inline float sum(vec3f a) { return a.x + a.y + a.z; }
 inline float mean(vec3f a) { return sum(a) / 3; }
 inline vec3f lerp(vec3f a, vec3f b, float u) { return a * (1 - u) + b * u; }
-inline vec3f exp(vec3f a) { return {std::exp(a.x), std::exp(a.y), std::exp(a.z)}; }
-inline vec3f log(vec3f a) { return {std::log(a.x), std::log(a.y), std::log(a.z)}; }
+inline vec3f exp(vec3f a) {
+  return {std::exp(a.x), std::exp(a.y), std::exp(a.z)};
+}
+inline vec3f log(vec3f a) {
+  return {std::log(a.x), std::log(a.y), std::log(a.z)};
+}
 inline vec3f sqrt(vec3f a) {
   return {std::sqrt(a.x), std::sqrt(a.y), std::sqrt(a.z)};
 }
@@ -160,7 +168,9 @@ inline bool operator==(vec3i a, vec3i b) {
 inline float clamp(float a, float lo, float hi) {
   return std::min(std::max(a, lo), hi);
 }
-inline int   clamp(int a, int lo, int hi) { return std::min(std::max(a, lo), hi); }
+inline int clamp(int a, int lo, int hi) {
+  return std::min(std::max(a, lo), hi);
+}
 inline float lerp(float a, float b, float u) { return a * (1 - u) + b * u; }
 inline float radians(float a) { return a * pif / 180; }
 inline float sign(float a) { return a < 0 ? -1.0f : 1.0f; }
@@ -174,7 +184,8 @@ struct mat3f {
 };
 
 // An affine map p -> x*p.x + y*p.y + z*p.z + o. Frames are named by what they
-// map (world_from_local, local_from_world); the columns need not be orthonormal.
+// map (world_from_local, local_from_world); the columns need not be
+// orthonormal.
 struct frame3f {
   vec3f x = {1, 0, 0}, y = {0, 1, 0}, z = {0, 0, 1}, o = {0, 0, 0};
 };
@@ -248,12 +259,12 @@ inline frame3f lookat_frame(vec3f from, vec3f to, vec3f up) {
 
 // Orthonormal basis around a unit vector (Duff et al. 2017).
 inline frame3f basis_fromz(vec3f v) {
-  auto z    = normalize(v);
-  auto sgn  = std::copysign(1.0f, z.z);
-  auto a    = -1.0f / (sgn + z.z);
-  auto b    = z.x * z.y * a;
-  auto x    = vec3f{1.0f + sgn * z.x * z.x * a, sgn * b, -sgn * z.x};
-  auto y    = vec3f{b, sgn + z.y * z.y * a, -z.y};
+  auto z   = normalize(v);
+  auto sgn = std::copysign(1.0f, z.z);
+  auto a   = -1.0f / (sgn + z.z);
+  auto b   = z.x * z.y * a;
+  auto x   = vec3f{1.0f + sgn * z.x * z.x * a, sgn * b, -sgn * z.x};
+  auto y   = vec3f{b, sgn + z.y * z.y * a, -z.y};
   return {x, y, z, {0, 0, 0}};
 }
 
@@ -271,7 +282,9 @@ inline constexpr bbox3f invalid_bbox = {};
 inline bool  is_empty(const bbox3f& b) { return b.min.x > b.max.x; }
 inline vec3f center(const bbox3f& b) { return (b.min + b.max) * 0.5f; }
 inline vec3f size(const bbox3f& b) { return b.max - b.min; }
-inline bool  is_finite(const bbox3f& b) { return isfinite(b.min) && isfinite(b.max); }
+inline bool  is_finite(const bbox3f& b) {
+   return isfinite(b.min) && isfinite(b.max);
+}
 inline bbox3f merge(const bbox3f& a, vec3f p) {
   return {min(a.min, p), max(a.max, p)};
 }
@@ -281,10 +294,12 @@ inline bbox3f merge(const bbox3f& a, const bbox3f& b) {
 inline bbox3f intersect(const bbox3f& a, const bbox3f& b) {
   return {max(a.min, b.min), min(a.max, b.max)};
 }
-inline bbox3f expand(const bbox3f& b, float r) { return {b.min - r, b.max + r}; }
-inline bool   inside(const bbox3f& b, vec3f p) {
-  return p.x >= b.min.x && p.x <= b.max.x && p.y >= b.min.y &&
-         p.y <= b.max.y && p.z >= b.min.z && p.z <= b.max.z;
+inline bbox3f expand(const bbox3f& b, float r) {
+  return {b.min - r, b.max + r};
+}
+inline bool inside(const bbox3f& b, vec3f p) {
+  return p.x >= b.min.x && p.x <= b.max.x && p.y >= b.min.y && p.y <= b.max.y &&
+         p.z >= b.min.z && p.z <= b.max.z;
 }
 
 // Image of a box under an affine map (boxes with infinite extent stay infinite

@@ -150,7 +150,7 @@ json parse_json(const std::string& text, const std::string& filename) {
     if (start != std::string::npos) start = what.find(": ", start);
     if (start != std::string::npos) problem = what.substr(start + 2);
     throw io_error(filename + ":" + std::to_string(position.x) + ":" +
-        std::to_string(position.y) + ": invalid JSON: " + problem);
+                   std::to_string(position.y) + ": invalid JSON: " + problem);
   } catch (const json::exception& error) {
     // Numbers beyond double range (1e999) are out_of_range errors without a
     // position; the message quotes the number, so look for it in the text.
@@ -163,13 +163,14 @@ json parse_json(const std::string& text, const std::string& filename) {
       auto offset = text.find(token);
       // Skip matches inside a longer number (1e999 inside 21e999).
       while (offset != std::string::npos && offset > 0 &&
-          std::string{"0123456789.-+eE"}.find(text[offset - 1]) !=
-              std::string::npos)
+             std::string{"0123456789.-+eE"}.find(text[offset - 1]) !=
+                 std::string::npos)
         offset = text.find(token, offset + 1);
       if (offset != std::string::npos) {
         auto position = json_line_column(text, offset);
         throw io_error(filename + ":" + std::to_string(position.x) + ":" +
-            std::to_string(position.y) + ": invalid JSON: " + problem);
+                       std::to_string(position.y) +
+                       ": invalid JSON: " + problem);
       }
     }
     throw io_error(filename + ": invalid JSON: " + problem);

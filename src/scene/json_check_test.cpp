@@ -19,9 +19,7 @@ template <typename Read>
 std::string error_of(Read&& read) {
   try {
     read();
-  } catch (const io_error& error) {
-    return error.what();
-  }
+  } catch (const io_error& error) { return error.what(); }
   return "no error";
 }
 
@@ -42,24 +40,24 @@ TEST_CASE("scene_io json syntax errors") {
     return error_of([&] { parse_json(text, "f.json"); });
   };
   CHECK(parse("{\"a\": 1,\n \"b\": tru}") ==
-      "f.json:2:10: invalid JSON: syntax error while parsing value - "
-      "invalid literal; last read: '\"b\": tru}'");
+        "f.json:2:10: invalid JSON: syntax error while parsing value - "
+        "invalid literal; last read: '\"b\": tru}'");
   CHECK(parse("{\"a\": 1,\n \"b\": 2") ==
-      "f.json:2:8: invalid JSON: syntax error while parsing object - "
-      "unexpected end of input; expected '}'");
+        "f.json:2:8: invalid JSON: syntax error while parsing object - "
+        "unexpected end of input; expected '}'");
   // The overflowing number is found in the text, not inside a longer one.
   CHECK(parse("[21e999,\n 1e999]") ==
-      "f.json:1:2: invalid JSON: number overflow parsing '21e999'");
+        "f.json:1:2: invalid JSON: number overflow parsing '21e999'");
   CHECK(parse("[2,\n  -1e999]") ==
-      "f.json:2:3: invalid JSON: number overflow parsing '-1e999'");
+        "f.json:2:3: invalid JSON: number overflow parsing '-1e999'");
   // Duplicate keys name their place, through arrays and objects.
   CHECK(parse(R"({"a": [{"b": 1}, {"c": 1, "d": {"e": 0, "e": 1}}]})") ==
-      "f.json: a[1].d.e: duplicate key (each key may appear once per "
-      "object)");
+        "f.json: a[1].d.e: duplicate key (each key may appear once per "
+        "object)");
   CHECK(parse(R"({"a": [1, [2, 3], {"x": 1}, {"x": 1, "x": 2}]})") ==
-      "f.json: a[3].x: duplicate key (each key may appear once per object)");
+        "f.json: a[3].x: duplicate key (each key may appear once per object)");
   CHECK(parse(R"({"a": 1, "a": 1})") ==
-      "f.json: a: duplicate key (each key may appear once per object)");
+        "f.json: a: duplicate key (each key may appear once per object)");
   // The same key in different objects is fine.
   auto js = parse_json(R"({"a": {"x": 1}, "b": [{"x": 2}, {"x": 3}]})", "f");
   CHECK(js["b"][1]["x"].get<int>() == 3);
@@ -112,16 +110,16 @@ TEST_CASE("scene_io json typed reading") {
   CHECK(error("neg", i) == prefix + "neg: integer too large (-3000000000)");
   CHECK(error("huge", f) == prefix + "huge: out of float range (1e+39)");
   CHECK(error("v2", v) ==
-      prefix + "v2: expected an array of 3 numbers, found 2 values");
+        prefix + "v2: expected an array of 3 numbers, found 2 values");
   CHECK(error("v3", v) == prefix + "v3[1]: expected a number, found a string");
   CHECK(error("s", v) ==
-      prefix + "s: expected an array of 3 numbers, found a string");
+        prefix + "s: expected an array of 3 numbers, found a string");
   CHECK(error("v", m) ==
-      prefix + "v: expected an array of 12 numbers, found 3 values");
+        prefix + "v: expected an array of 12 numbers, found 3 values");
   CHECK(error_of([&] { read_json_required(place, js, "x", f); }) ==
-      prefix + "x: missing required key");
+        prefix + "x: missing required key");
   CHECK(error_of([&] { find_json_array(place, js, "o"); }) ==
-      prefix + "o: expected an array, found an object");
+        prefix + "o: expected an array, found an object");
   CHECK(find_json_array(place, js, "missing") == nullptr);
   CHECK(error_of([&] { check_json_keys(place, js["o"], {}); }) == "no error");
   CHECK(error_of([&] {

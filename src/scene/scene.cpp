@@ -23,7 +23,8 @@ int find_camera(const scene_data& scene, const std::string& name) {
     auto names = std::string{};
     for (auto& camera : scene.cameras)
       names += (names.empty() ? "" : ", ") + camera.name;
-    throw io_error("camera \"" + name + "\" not found (cameras: " + names + ")");
+    throw io_error(
+        "camera \"" + name + "\" not found (cameras: " + names + ")");
   }
   for (auto n : {"default", "camera", "camera0", "camera1"}) {
     auto idx = find(n);
@@ -34,11 +35,11 @@ int find_camera(const scene_data& scene, const std::string& name) {
 
 vec2i camera_resolution(const camera_data& camera, int resolution) {
   if (camera.aspect >= 1) {
-    return {resolution,
-        std::max(1, (int)std::round(resolution / camera.aspect))};
+    return {
+        resolution, std::max(1, (int)std::round(resolution / camera.aspect))};
   } else {
-    return {std::max(1, (int)std::round(resolution * camera.aspect)),
-        resolution};
+    return {
+        std::max(1, (int)std::round(resolution * camera.aspect)), resolution};
   }
 }
 
@@ -52,22 +53,22 @@ ray3f eval_camera(const camera_data& camera, vec2f image_uv, vec2f lens_uv) {
     auto q  = vec3f{film.x * (0.5f - image_uv.x), film.y * (image_uv.y - 0.5f),
         camera.lens};
     auto dc = -normalize(q);
-    auto e  = vec3f{lens_uv.x * camera.aperture / 2,
-        lens_uv.y * camera.aperture / 2, 0};
-    auto p  = dc * camera.focus / std::abs(dc.z);
-    auto d  = normalize(p - e);
-    return {transform_point(camera.frame, e),
-        transform_direction(camera.frame, d)};
+    auto e  = vec3f{
+        lens_uv.x * camera.aperture / 2, lens_uv.y * camera.aperture / 2, 0};
+    auto p = dc * camera.focus / std::abs(dc.z);
+    auto d = normalize(p - e);
+    return {
+        transform_point(camera.frame, e), transform_direction(camera.frame, d)};
   } else {
     auto scale = 1 / camera.lens;
-    auto q = vec3f{film.x * (0.5f - image_uv.x) * scale,
+    auto q     = vec3f{film.x * (0.5f - image_uv.x) * scale,
         film.y * (image_uv.y - 0.5f) * scale, camera.lens};
-    auto e = vec3f{-q.x, -q.y, 0} + vec3f{lens_uv.x * camera.aperture / 2,
-                                       lens_uv.y * camera.aperture / 2, 0};
-    auto p = vec3f{-q.x, -q.y, -camera.focus};
-    auto d = normalize(p - e);
-    return {transform_point(camera.frame, e),
-        transform_direction(camera.frame, d)};
+    auto e     = vec3f{-q.x, -q.y, 0} + vec3f{lens_uv.x * camera.aperture / 2,
+                                        lens_uv.y * camera.aperture / 2, 0};
+    auto p     = vec3f{-q.x, -q.y, -camera.focus};
+    auto d     = normalize(p - e);
+    return {
+        transform_point(camera.frame, e), transform_direction(camera.frame, d)};
   }
 }
 

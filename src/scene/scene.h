@@ -20,7 +20,8 @@ namespace implicit {
 // SCENE DATA
 // -----------------------------------------------------------------------------
 
-// Camera as in Yocto/GL: looks down -z of its frame; film along the longer side.
+// Camera as in Yocto/GL: looks down -z of its frame; film along the longer
+// side.
 struct camera_data {
   std::string name         = "";
   frame3f     frame        = {};
@@ -108,12 +109,12 @@ struct vol_instance_data {
 // pay for the indirect call; `bounds` must contain the zero set and
 // `lipschitz` bound the function's slope.
 struct user_sdf_data {
-  std::string                  name             = "";
-  std::function<float(vec3f)>  eval             = {};
-  bbox3f                       bounds           = {};
-  float                        lipschitz        = 1;
-  frame3f                      local_from_world = {};
-  int                          material         = invalidid;
+  std::string                 name             = "";
+  std::function<float(vec3f)> eval             = {};
+  bbox3f                      bounds           = {};
+  float                       lipschitz        = 1;
+  frame3f                     local_from_world = {};
+  int                         material         = invalidid;
 };
 
 // The whole scene.
@@ -150,8 +151,8 @@ vec4f eval_texture(const scene_data& scene, int texture, vec2f uv);
 
 // Environment radiance along a world direction (sum of all environments).
 vec3f eval_environment(const scene_data& scene, vec3f direction);
-vec3f eval_environment(
-    const scene_data& scene, const environment_data& environment, vec3f direction);
+vec3f eval_environment(const scene_data& scene,
+    const environment_data& environment, vec3f direction);
 
 // Add a camera that frames the scene's bounds when there is none.
 void add_missing_camera(scene_data& scene, const bbox3f& bounds);

@@ -74,7 +74,7 @@ static std::string format_number(float value) {
 
 static std::string format_vec3(vec3f value) {
   return "(" + format_number(value.x) + ", " + format_number(value.y) + ", " +
-      format_number(value.z) + ")";
+         format_number(value.z) + ")";
 }
 
 // "1 texture", "3 textures".

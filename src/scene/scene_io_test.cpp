@@ -123,7 +123,7 @@ bool starts_with(const std::string& text, const std::string& prefix) {
 // A minimal valid scene around `arrays` (JSON members, no braces).
 std::string small_scene(const std::string& arrays) {
   return R"({"asset": {"version": "4.2"}, "materials": [{"name": "m"}], )" +
-      arrays + "}";
+         arrays + "}";
 }
 
 // The one sdfunction of a small scene.
@@ -234,7 +234,7 @@ TEST_CASE("scene_io seed frame convention") {
     for (auto z : {-1.0f, -0.3f, 0.0f, 0.9f, 1.0f}) {
       CHECK(std::abs(world_distance(floor, {x, 0, z})) <= 1e-6f);
       CHECK(world_distance(floor, {x, 1, z}) ==
-          doctest::Approx(1 - 0.00001f).epsilon(1e-6));
+            doctest::Approx(1 - 0.00001f).epsilon(1e-6));
     }
   }
   CHECK(world_distance(floor, {1.5f, 0, 0}) == doctest::Approx(0.5f));
@@ -264,7 +264,8 @@ TEST_CASE("scene_io world_from_local matches frame") {
   for (auto x = -1.0f; x <= 1.0f; x += 0.25f) {
     for (auto y = -1.0f; y <= 1.0f; y += 0.5f) {
       for (auto z = -1.0f; z <= 1.0f; z += 0.25f) {
-        CHECK(world_distance(by_inverse, {x, y, z}) ==
+        CHECK(
+            world_distance(by_inverse, {x, y, z}) ==
             doctest::Approx(world_distance(by_frame, {x, y, z})).epsilon(1e-5));
       }
     }
@@ -274,7 +275,7 @@ TEST_CASE("scene_io world_from_local matches frame") {
   CHECK(std::abs(world_distance(by_inverse, {0.4f, 0.3f, -0.6f})) < 1e-6f);
   // 0.5 above the top face (local y = 0.2 is world y = 0.3).
   CHECK(world_distance(by_inverse, {0.35f, 0.8f, -0.4f}) ==
-      doctest::Approx(0.5f));
+        doctest::Approx(0.5f));
 }
 
 TEST_CASE("scene_io csg trees") {
@@ -337,7 +338,7 @@ TEST_CASE("scene_io csg trees") {
     CHECK(nodes[4].left == 2);
     CHECK(nodes[4].right == 3);
     CHECK(world_distance(sdf, {0.5f, 0.5f, 0.5f}) ==
-        doctest::Approx(std::sqrt(0.75f) - 1));
+          doctest::Approx(std::sqrt(0.75f) - 1));
     CHECK(world_distance(sdf, {0.5f, -0.25f, 0.5f}) == doctest::Approx(0.25f));
     CHECK(world_distance(sdf, {0.1f, 0.2f, 0.1f}) == doctest::Approx(-0.1f));
   }
@@ -355,8 +356,9 @@ TEST_CASE("scene_io csg trees") {
     // Equal distances 0.1 blend down by blend/4.
     CHECK(world_distance(sdf, {0, 0, 0}) == doctest::Approx(0.05f));
     for (auto type : {"smooth_intersection", "smooth_subtraction"}) {
-      auto other = parse_sdfunction_text(std::string{R"({"type": ")"} + type +
-          R"(", "blend": 0.3, "material": 0, "operands": [
+      auto other =
+          parse_sdfunction_text(std::string{R"({"type": ")"} + type +
+                                R"(", "blend": 0.3, "material": 0, "operands": [
             {"type": "sphere", "radius": 1}, {"type": "plane"}]})");
       CHECK(sdf_type_names[(int)other.program.nodes.back().type] == type);
       CHECK(other.program.nodes.back().blend == 0.3f);
@@ -511,11 +513,11 @@ TEST_CASE("scene_io missing material textures warn") {
   CHECK(scene.materials[2].color_tex == 0);
   REQUIRE(warnings.size() == 2);
   CHECK(warnings[0] ==
-      "scene.json: materials[0] (\"floor\").color_tex: texture 1 does not "
-      "exist (the scene has 1 texture); ignored");
+        "scene.json: materials[0] (\"floor\").color_tex: texture 1 does not "
+        "exist (the scene has 1 texture); ignored");
   CHECK(warnings[1] ==
-      "scene.json: materials[2] (\"all\").normal_tex: texture 7 does not "
-      "exist (the scene has 1 texture); ignored");
+        "scene.json: materials[2] (\"all\").normal_tex: texture 7 does not "
+        "exist (the scene has 1 texture); ignored");
   // -1 is none, silently.
   js                              = base_scene();
   js["materials"][0]["color_tex"] = -1;
@@ -559,17 +561,16 @@ TEST_CASE("scene_io seed scenes") {
     auto& floor = scene.sdfunctions[0];
     CHECK(std::abs(world_distance(floor, {-0.9f, 0, 0.9f})) < 1e-6f);
     CHECK(world_distance(floor, {0, 0.5f, 0}) ==
-        doctest::Approx(0.5f - 0.00001f));
+          doctest::Approx(0.5f - 0.00001f));
     REQUIRE(warnings.size() == 2);
-    CHECK(warnings[0] ==
-        filename +
-            ": materials[0] (\"floor\").color_tex: texture 1 "
-            "does not exist (the scene has 1 texture); ignored");
-    CHECK(warnings[1] ==
-        filename +
-            ": materials[3] (\"sackboy1\").color_tex: texture "
-            "2 does not exist (the scene has 1 texture); "
-            "ignored");
+    CHECK(
+        warnings[0] == filename +
+                           ": materials[0] (\"floor\").color_tex: texture 1 "
+                           "does not exist (the scene has 1 texture); ignored");
+    CHECK(warnings[1] == filename +
+                             ": materials[3] (\"sackboy1\").color_tex: texture "
+                             "2 does not exist (the scene has 1 texture); "
+                             "ignored");
   }
   SUBCASE("06_gridsdf validates exactly") {
     auto filename = dir + "06_gridsdf/gridsdf.json";
@@ -602,9 +603,9 @@ TEST_CASE("scene_io seed scenes") {
       auto message   = std::string{error.what()};
       auto directory = std::filesystem::path(filename).parent_path();
       auto volume    = filename + ": volumes[0] (\"sackboy\").uri: " +
-          (directory / "sdfs/sackboy.sdf").string();
+                    (directory / "sdfs/sackboy.sdf").string();
       auto texture = filename + ": textures[0] (\"sky\").uri: " +
-          (directory / "textures/sky.hdr").string();
+                     (directory / "textures/sky.hdr").string();
       INFO(message);
       CHECK((starts_with(message, volume) || starts_with(message, texture)));
     }
@@ -636,13 +637,13 @@ TEST_CASE("scene_io load_scene reads files") {
   auto inside = (dir / "scene.json").string();
   CHECK_THROWS_WITH_AS(parse_scene(with_volume, inside),
       contains(inside + ": volumes[0] (\"bunny\").uri: " +
-          (dir / "nowhere/bunny.sdf").string()),
+               (dir / "nowhere/bunny.sdf").string()),
       io_error);
   auto with_texture =
       small_scene(R"("textures": [{"name": "sky", "uri": "nowhere/sky.hdr"}])");
   CHECK_THROWS_WITH_AS(parse_scene(with_texture, inside),
-      contains(inside +
-          ": textures[0] (\"sky\").uri: " + (dir / "nowhere/sky.hdr").string()),
+      contains(inside + ": textures[0] (\"sky\").uri: " +
+               (dir / "nowhere/sky.hdr").string()),
       io_error);
 }
 
@@ -660,15 +661,15 @@ TEST_CASE("scene_io errors: invalid JSON") {
   CHECK(starts_with(scene_error(""), "scene.json:1:1: invalid JSON"));
   // Numbers beyond double range are refused by nlohmann without a position.
   CHECK(scene_error("{\n \"a\": [1,\n  1e999]}") ==
-      "scene.json:3:3: invalid JSON: number overflow parsing '1e999'");
+        "scene.json:3:3: invalid JSON: number overflow parsing '1e999'");
   // A repeated key would silently drop the first value.
   auto duplicate = scene_error(small_scene(
       R"("sdfunctions": [{"type": "sphere", "radius": 1, "radius": 2, "material": 0}])"));
   CHECK(duplicate ==
-      "scene.json: sdfunctions[0].radius: duplicate key (each key may "
-      "appear once per object)");
+        "scene.json: sdfunctions[0].radius: duplicate key (each key may "
+        "appear once per object)");
   CHECK(scene_error("[1]") ==
-      "scene.json: expected a JSON object, found an array");
+        "scene.json: expected a JSON object, found an array");
 }
 
 TEST_CASE("scene_io errors: asset and top level") {
@@ -682,77 +683,77 @@ TEST_CASE("scene_io errors: asset and top level") {
   js                     = base_scene();
   js["asset"]["version"] = "4.1";
   CHECK(scene_error(js) ==
-      "scene.json: asset.version: unsupported version \"4.1\" (accepted "
-      "versions: \"4.2\", \"5.0\")");
+        "scene.json: asset.version: unsupported version \"4.1\" (accepted "
+        "versions: \"4.2\", \"5.0\")");
   js["asset"]["version"] = 4.2;
   CHECK(scene_error(js) ==
-      "scene.json: asset.version: expected a string, found a number");
+        "scene.json: asset.version: expected a string, found a number");
   js          = base_scene();
   js["asset"] = "4.2";
   CHECK(scene_error(js) ==
-      "scene.json: asset: expected an object, found a string");
+        "scene.json: asset: expected an object, found a string");
   js                  = base_scene();
   js["asset"]["date"] = "today";
   CHECK(starts_with(scene_error(js), "scene.json: asset.date: unknown key"));
   js           = base_scene();
   js["lights"] = nlohmann::json::array();
   CHECK(scene_error(js) ==
-      "scene.json: lights: unknown key (valid keys: asset, cameras, "
-      "textures, materials, environments, sdfunctions, volumes, "
-      "vol_instances)");
+        "scene.json: lights: unknown key (valid keys: asset, cameras, "
+        "textures, materials, environments, sdfunctions, volumes, "
+        "vol_instances)");
   for (auto key : {"shapes", "instances", "subdivs"}) {
     js      = base_scene();
     js[key] = nlohmann::json::array();
     CHECK(scene_error(js) ==
-        std::string{"scene.json: "} + key +
-            ": meshes are not supported: implicit renders implicit "
-            "surfaces only (use sdfunctions, or volumes and vol_instances)");
+          std::string{"scene.json: "} + key +
+              ": meshes are not supported: implicit renders implicit "
+              "surfaces only (use sdfunctions, or volumes and vol_instances)");
   }
   js            = base_scene();
   js["cameras"] = nlohmann::json::object();
   CHECK(scene_error(js) ==
-      "scene.json: cameras: expected an array, found an object");
+        "scene.json: cameras: expected an array, found an object");
   js               = base_scene();
   js["cameras"][1] = 3;
   CHECK(scene_error(js) ==
-      "scene.json: cameras[1]: expected an object, found a number");
+        "scene.json: cameras[1]: expected an object, found a number");
 }
 
 TEST_CASE("scene_io errors: types and unknown keys") {
   auto js                        = base_scene();
   js["sdfunctions"][2]["radius"] = "big";
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").radius: expected a number, "
-      "found a string");
+        "scene.json: sdfunctions[2] (\"ball\").radius: expected a number, "
+        "found a string");
   js                               = base_scene();
   js["cameras"][0]["orthographic"] = 1;
   CHECK(scene_error(js) ==
-      "scene.json: cameras[0] (\"cam\").orthographic: expected a boolean, "
-      "found a number");
+        "scene.json: cameras[0] (\"cam\").orthographic: expected a boolean, "
+        "found a number");
   js                       = base_scene();
   js["cameras"][0]["name"] = 7;
   CHECK(scene_error(js) ==
-      "scene.json: cameras[0].name: expected a string, found a number");
+        "scene.json: cameras[0].name: expected a string, found a number");
   js                          = base_scene();
   js["materials"][1]["color"] = {1, 1};
   CHECK(scene_error(js) ==
-      "scene.json: materials[1] (\"light\").color: expected an array of 3 "
-      "numbers, found 2 values");
+        "scene.json: materials[1] (\"light\").color: expected an array of 3 "
+        "numbers, found 2 values");
   js                          = base_scene();
   js["materials"][1]["color"] = {1, true, 1};
   CHECK(scene_error(js) ==
-      "scene.json: materials[1] (\"light\").color[1]: expected a number, "
-      "found a boolean");
+        "scene.json: materials[1] (\"light\").color[1]: expected a number, "
+        "found a boolean");
   js                               = base_scene();
   js["sdfunctions"][2]["material"] = 1.5;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").material: expected an "
-      "integer, found 1.5");
+        "scene.json: sdfunctions[2] (\"ball\").material: expected an "
+        "integer, found 1.5");
   js                               = base_scene();
   js["sdfunctions"][2]["material"] = "floor";
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").material: expected an "
-      "integer, found a string");
+        "scene.json: sdfunctions[2] (\"ball\").material: expected an "
+        "integer, found a string");
   // Unknown type strings list the valid names.
   js                           = base_scene();
   js["sdfunctions"][2]["type"] = "spher";
@@ -762,16 +763,16 @@ TEST_CASE("scene_io errors: types and unknown keys") {
   js                         = base_scene();
   js["materials"][0]["type"] = "plastic";
   CHECK(scene_error(js) ==
-      "scene.json: materials[0] (\"floor\").type: unknown type \"plastic\" "
-      "(valid types: matte, glossy, reflective, transparent, refractive, "
-      "subsurface, volumetric, gltfpbr)");
+        "scene.json: materials[0] (\"floor\").type: unknown type \"plastic\" "
+        "(valid types: matte, glossy, reflective, transparent, refractive, "
+        "subsurface, volumetric, gltfpbr)");
   // Unknown keys, per type for sdfunctions.
   js                         = base_scene();
   js["sdfunctions"][2]["r1"] = 0.5;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").r1: unknown key for type "
-      "\"sphere\" (valid keys: name, type, material, frame, "
-      "world_from_local, radius)");
+        "scene.json: sdfunctions[2] (\"ball\").r1: unknown key for type "
+        "\"sphere\" (valid keys: name, type, material, frame, "
+        "world_from_local, radius)");
   js                      = base_scene();
   js["cameras"][0]["fov"] = 45;
   CHECK(starts_with(scene_error(js),
@@ -782,9 +783,9 @@ TEST_CASE("scene_io errors: types and unknown keys") {
     js                     = base_scene();
     js[array][0]["colour"] = 1;
     auto name              = js[array][0]["name"].get<std::string>();
-    CHECK(starts_with(scene_error(js),
-        std::string{"scene.json: "} + array + "[0] (\"" + name +
-            "\").colour: unknown key"));
+    CHECK(starts_with(scene_error(js), std::string{"scene.json: "} + array +
+                                           "[0] (\"" + name +
+                                           "\").colour: unknown key"));
   }
 }
 
@@ -792,37 +793,37 @@ TEST_CASE("scene_io errors: sdfunction parameters") {
   auto js = base_scene();
   js["sdfunctions"][3].erase("r2");
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[3] (\"torus1\").r2: missing required "
-      "parameter");
+        "scene.json: sdfunctions[3] (\"torus1\").r2: missing required "
+        "parameter");
   js = base_scene();
   js["sdfunctions"][0].erase("whd");
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[0] (\"floor\").whd: missing required "
-      "parameter");
+        "scene.json: sdfunctions[0] (\"floor\").whd: missing required "
+        "parameter");
   js = base_scene();
   js["sdfunctions"][2].erase("type");
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").type: missing required key");
+        "scene.json: sdfunctions[2] (\"ball\").type: missing required key");
   js = base_scene();
   js["sdfunctions"][2].erase("material");
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").material: missing required "
-      "key");
+        "scene.json: sdfunctions[2] (\"ball\").material: missing required "
+        "key");
   // Elements without a name are named by index only.
   js = base_scene();
   js["sdfunctions"][2].erase("name");
   js["sdfunctions"][2]["radius"] = -0.25;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2].radius: must be > 0, found -0.25");
+        "scene.json: sdfunctions[2].radius: must be > 0, found -0.25");
   js                             = base_scene();
   js["sdfunctions"][2]["radius"] = 0;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").radius: must be > 0, found 0");
+        "scene.json: sdfunctions[2] (\"ball\").radius: must be > 0, found 0");
   js                          = base_scene();
   js["sdfunctions"][0]["whd"] = {2, -1, 2};
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[0] (\"floor\").whd: must be > 0 in every "
-      "component, found (2, -1, 2)");
+        "scene.json: sdfunctions[0] (\"floor\").whd: must be > 0 in every "
+        "component, found (2, -1, 2)");
   js                                = base_scene();
   js["sdfunctions"][1]["thickness"] = -0.1;
   CHECK(starts_with(scene_error(js),
@@ -837,11 +838,11 @@ TEST_CASE("scene_io errors: sdfunction parameters") {
   CHECK(parse_json_scene(js).sdfunctions[4].program.nodes[0].radius2 == 0);
   js["sdfunctions"][4]["r1"] = 0;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[4] (\"cone\").r2: r1 and r2 cannot both be 0");
+        "scene.json: sdfunctions[4] (\"cone\").r2: r1 and r2 cannot both be 0");
   js                         = base_scene();
   js["sdfunctions"][4]["r1"] = -0.1;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[4] (\"cone\").r1: must be >= 0, found -0.1");
+        "scene.json: sdfunctions[4] (\"cone\").r1: must be >= 0, found -0.1");
   js                             = base_scene();
   js["sdfunctions"][4]["height"] = 0;
   CHECK(starts_with(scene_error(js),
@@ -852,9 +853,9 @@ TEST_CASE("scene_io errors: sdfunction parameters") {
     js                            = base_scene();
     js["sdfunctions"][index][key] = -1;
     auto name = js["sdfunctions"][index]["name"].get<std::string>();
-    CHECK(scene_error(js) ==
-        "scene.json: sdfunctions[" + std::to_string(index) + "] (\"" + name +
-            "\")." + key + ": must be > 0, found -1");
+    CHECK(scene_error(js) == "scene.json: sdfunctions[" +
+                                 std::to_string(index) + "] (\"" + name +
+                                 "\")." + key + ": must be > 0, found -1");
   }
   js                            = base_scene();
   js["sdfunctions"][9]["radii"] = {0.3, 0, 0.1};
@@ -863,16 +864,16 @@ TEST_CASE("scene_io errors: sdfunction parameters") {
   js                             = base_scene();
   js["sdfunctions"][8]["radius"] = 0.2;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[8] (\"rbox\").radius: must be <= the "
-      "smallest half size 0.1, found 0.2");
+        "scene.json: sdfunctions[8] (\"rbox\").radius: must be <= the "
+        "smallest half size 0.1, found 0.2");
 }
 
 TEST_CASE("scene_io errors: nested operators") {
   auto js                                        = base_scene();
   js["sdfunctions"][11]["operands"][1]["radius"] = -1;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[11] (\"blob\").operands[1].radius: must be "
-      "> 0, found -1");
+        "scene.json: sdfunctions[11] (\"blob\").operands[1].radius: must be "
+        "> 0, found -1");
   js                                           = base_scene();
   js["sdfunctions"][11]["operands"][0]["type"] = "blob";
   CHECK(starts_with(scene_error(js),
@@ -881,8 +882,8 @@ TEST_CASE("scene_io errors: nested operators") {
   js                                   = base_scene();
   js["sdfunctions"][11]["operands"][0] = 2;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[11] (\"blob\").operands[0]: expected an "
-      "object, found a number");
+        "scene.json: sdfunctions[11] (\"blob\").operands[0]: expected an "
+        "object, found a number");
   js                                               = base_scene();
   js["sdfunctions"][11]["operands"][0]["material"] = 0;
   CHECK(starts_with(scene_error(js),
@@ -891,18 +892,18 @@ TEST_CASE("scene_io errors: nested operators") {
   js = base_scene();
   js["sdfunctions"][11]["operands"].erase(1);
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[11] (\"blob\").operands: expected at least "
-      "2 operands, found 1");
+        "scene.json: sdfunctions[11] (\"blob\").operands: expected at least "
+        "2 operands, found 1");
   js = base_scene();
   js["sdfunctions"][11].erase("operands");
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[11] (\"blob\").operands: missing required "
-      "parameter");
+        "scene.json: sdfunctions[11] (\"blob\").operands: missing required "
+        "parameter");
   js = base_scene();
   js["sdfunctions"][11].erase("blend");
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[11] (\"blob\").blend: missing required "
-      "parameter");
+        "scene.json: sdfunctions[11] (\"blob\").blend: missing required "
+        "parameter");
   js                             = base_scene();
   js["sdfunctions"][11]["blend"] = 0;
   CHECK(starts_with(scene_error(js),
@@ -915,14 +916,14 @@ TEST_CASE("scene_io errors: nested operators") {
   CHECK(scene_error(small_scene(R"("sdfunctions": [{"name": "o",
       "type": "onion", "thickness": -0.1, "material": 0,
       "operand": {"type": "plane"}}])")) ==
-      "scene.json: sdfunctions[0] (\"o\").thickness: must be > 0, found "
-      "-0.1");
+        "scene.json: sdfunctions[0] (\"o\").thickness: must be > 0, found "
+        "-0.1");
   CHECK(scene_error(small_scene(R"("sdfunctions": [{"name": "r",
       "type": "round", "radius": 0.1, "material": 0,
       "operand": {"type": "round", "radius": 0.1,
         "operand": {"type": "sphere"}}}])")) ==
-      "scene.json: sdfunctions[0] (\"r\").operand.operand.radius: missing "
-      "required parameter");
+        "scene.json: sdfunctions[0] (\"r\").operand.operand.radius: missing "
+        "required parameter");
   CHECK(starts_with(scene_error(small_scene(R"("sdfunctions": [{"name": "t",
       "type": "transform", "material": 0,
       "operand": {"type": "plane"}}])")),
@@ -935,7 +936,7 @@ TEST_CASE("scene_io errors: nested operators") {
   auto error = scene_error(small_scene(R"("sdfunctions": [)" + deep + "]"));
   CHECK(starts_with(error, "scene.json: sdfunctions[0] (\"deep\").operand."));
   CHECK(error.find(": sdfunctions nested deeper than 64 levels") !=
-      std::string::npos);
+        std::string::npos);
 }
 
 TEST_CASE("scene_io errors: frames") {
@@ -946,24 +947,24 @@ TEST_CASE("scene_io errors: frames") {
   js                            = base_scene();
   js["sdfunctions"][0]["frame"] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 0};
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[0] (\"floor\").frame: expected an array of "
-      "12 numbers, found 11 values");
+        "scene.json: sdfunctions[0] (\"floor\").frame: expected an array of "
+        "12 numbers, found 11 values");
   js                               = base_scene();
   js["sdfunctions"][0]["frame"][3] = "0";
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[0] (\"floor\").frame[3]: expected a number, "
-      "found a string");
+        "scene.json: sdfunctions[0] (\"floor\").frame[3]: expected a number, "
+        "found a string");
   // NaN cannot be written in JSON (nlohmann writes null for it).
   js                               = base_scene();
   js["sdfunctions"][0]["frame"][0] = std::nan("");
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[0] (\"floor\").frame[0]: expected a number, "
-      "found null");
+        "scene.json: sdfunctions[0] (\"floor\").frame[0]: expected a number, "
+        "found null");
   js                               = base_scene();
   js["sdfunctions"][0]["frame"][9] = 1e39;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[0] (\"floor\").frame[9]: out of float range "
-      "(1e+39)");
+        "scene.json: sdfunctions[0] (\"floor\").frame[9]: out of float range "
+        "(1e+39)");
   js                                       = base_scene();
   js["sdfunctions"][0]["world_from_local"] = js["sdfunctions"][0]["frame"];
   CHECK(starts_with(scene_error(js),
@@ -999,27 +1000,27 @@ TEST_CASE("scene_io errors: references") {
   auto js                          = base_scene();
   js["sdfunctions"][2]["material"] = 3;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").material: index 3 out of range "
-      "(the scene has 3 materials)");
+        "scene.json: sdfunctions[2] (\"ball\").material: index 3 out of range "
+        "(the scene has 3 materials)");
   js["sdfunctions"][2]["material"] = -1;
   CHECK(scene_error(js) ==
-      "scene.json: sdfunctions[2] (\"ball\").material: index -1 out of "
-      "range (the scene has 3 materials)");
+        "scene.json: sdfunctions[2] (\"ball\").material: index -1 out of "
+        "range (the scene has 3 materials)");
   js                               = base_scene();
   js["vol_instances"][0]["volume"] = 2;
   CHECK(scene_error(js) ==
-      "scene.json: vol_instances[0] (\"inst\").volume: index 2 out of range "
-      "(the scene has 2 volumes)");
+        "scene.json: vol_instances[0] (\"inst\").volume: index 2 out of range "
+        "(the scene has 2 volumes)");
   js = base_scene();
   js["vol_instances"][1].erase("volume");
   CHECK(scene_error(js) ==
-      "scene.json: vol_instances[1] (\"defaults\").volume: missing "
-      "required key");
+        "scene.json: vol_instances[1] (\"defaults\").volume: missing "
+        "required key");
   js = base_scene();
   js["vol_instances"][1].erase("material");
   CHECK(scene_error(js) ==
-      "scene.json: vol_instances[1] (\"defaults\").material: missing "
-      "required key");
+        "scene.json: vol_instances[1] (\"defaults\").material: missing "
+        "required key");
   js                                 = base_scene();
   js["vol_instances"][0]["material"] = 9;
   CHECK(starts_with(scene_error(js),
@@ -1027,18 +1028,18 @@ TEST_CASE("scene_io errors: references") {
   js                                    = base_scene();
   js["environments"][0]["emission_tex"] = 1;
   CHECK(scene_error(js) ==
-      "scene.json: environments[0] (\"sky\").emission_tex: index 1 out of "
-      "range (the scene has 1 texture)");
+        "scene.json: environments[0] (\"sky\").emission_tex: index 1 out of "
+        "range (the scene has 1 texture)");
   js                              = base_scene();
   js["materials"][0]["color_tex"] = -2;
   CHECK(scene_error(js) ==
-      "scene.json: materials[0] (\"floor\").color_tex: must be -1 (none) "
-      "or a texture index, found -2");
+        "scene.json: materials[0] (\"floor\").color_tex: must be -1 (none) "
+        "or a texture index, found -2");
   // Without the array, any reference is out of range.
   CHECK(scene_error(R"({"asset": {"version": "4.2"}, "sdfunctions": [
       {"type": "plane", "material": 0}]})") ==
-      "scene.json: sdfunctions[0].material: index 0 out of range (the "
-      "scene has 0 materials)");
+        "scene.json: sdfunctions[0].material: index 0 out of range (the "
+        "scene has 0 materials)");
 }
 
 TEST_CASE("scene_io errors: value ranges") {
@@ -1067,15 +1068,15 @@ TEST_CASE("scene_io errors: value ranges") {
     auto js                           = base_scene();
     js[bad.array][bad.index][bad.key] = bad.value;
     auto name = js[bad.array][bad.index]["name"].get<std::string>();
-    CHECK(scene_error(js) ==
-        "scene.json: " + bad.array + "[" + std::to_string(bad.index) + "] (\"" +
-            name + "\")." + bad.key + ": " + bad.problem);
+    CHECK(scene_error(js) == "scene.json: " + bad.array + "[" +
+                                 std::to_string(bad.index) + "] (\"" + name +
+                                 "\")." + bad.key + ": " + bad.problem);
   }
   auto js                        = base_scene();
   js["materials"][1]["emission"] = {1, -1, 1};
   CHECK(scene_error(js) ==
-      "scene.json: materials[1] (\"light\").emission: must be >= 0 in every "
-      "component, found (1, -1, 1)");
+        "scene.json: materials[1] (\"light\").emission: must be >= 0 in every "
+        "component, found (1, -1, 1)");
   js                          = base_scene();
   js["materials"][2]["color"] = {0.1, 0.2, -0.3};
   CHECK(starts_with(scene_error(js),
@@ -1090,13 +1091,13 @@ TEST_CASE("scene_io errors: volumes and textures") {
   auto js = base_scene();
   js["volumes"][0].erase("binary");
   CHECK(scene_error(js) ==
-      "scene.json: volumes[0] (\"sackboy\").binary: missing required key "
-      "(false: SDFGen text, true: skanti binary)");
+        "scene.json: volumes[0] (\"sackboy\").binary: missing required key "
+        "(false: SDFGen text, true: skanti binary)");
   js                         = base_scene();
   js["volumes"][0]["binary"] = "no";
   CHECK(scene_error(js) ==
-      "scene.json: volumes[0] (\"sackboy\").binary: expected a boolean, "
-      "found a string");
+        "scene.json: volumes[0] (\"sackboy\").binary: expected a boolean, "
+        "found a string");
   // .vdb and .vol need no flag, upper case included.
   js                      = base_scene();
   js["volumes"][1]["uri"] = "grids/cloud.VOL";
@@ -1104,13 +1105,13 @@ TEST_CASE("scene_io errors: volumes and textures") {
   js = base_scene();
   js["volumes"][0].erase("uri");
   CHECK(scene_error(js) ==
-      "scene.json: volumes[0] (\"sackboy\").uri: missing required key");
+        "scene.json: volumes[0] (\"sackboy\").uri: missing required key");
   js = base_scene();
   js["textures"][0].erase("uri");
   CHECK(scene_error(js) ==
-      "scene.json: textures[0] (\"sky\").uri: missing required key");
+        "scene.json: textures[0] (\"sky\").uri: missing required key");
   js                       = base_scene();
   js["textures"][0]["uri"] = "";
   CHECK(scene_error(js) ==
-      "scene.json: textures[0] (\"sky\").uri: must not be empty");
+        "scene.json: textures[0] (\"sky\").uri: must not be empty");
 }

@@ -26,16 +26,16 @@ TEST_CASE("scene: camera rays") {
   // Thin lens: rays from any lens point meet on the focus plane.
   camera.aperture = 0.1f;
   camera.focus    = 3;
-  auto a = eval_camera(camera, {0.3f, 0.7f}, {0.5f, -0.2f});
-  auto b = eval_camera(camera, {0.3f, 0.7f}, {-0.8f, 0.6f});
-  auto pa = ray_point(a, (a.o.z - 2) / -a.d.z);
-  auto pb = ray_point(b, (b.o.z - 2) / -b.d.z);
+  auto a          = eval_camera(camera, {0.3f, 0.7f}, {0.5f, -0.2f});
+  auto b          = eval_camera(camera, {0.3f, 0.7f}, {-0.8f, 0.6f});
+  auto pa         = ray_point(a, (a.o.z - 2) / -a.d.z);
+  auto pb         = ray_point(b, (b.o.z - 2) / -b.d.z);
   CHECK(distance(pa, pb) < 1e-4f);
   // Orthographic: parallel rays.
   camera.orthographic = true;
   camera.aperture     = 0;
-  auto o1 = eval_camera(camera, {0.1f, 0.2f}, {0, 0});
-  auto o2 = eval_camera(camera, {0.9f, 0.6f}, {0, 0});
+  auto o1             = eval_camera(camera, {0.1f, 0.2f}, {0, 0});
+  auto o2             = eval_camera(camera, {0.9f, 0.6f}, {0, 0});
   CHECK(dot(o1.d, o2.d) == doctest::Approx(1.0f));
   CHECK(o1.o.x < o2.o.x);
 }

@@ -25,8 +25,8 @@ namespace implicit {
 // -----------------------------------------------------------------------------
 
 std::string check_grid_dims(int64_t nx, int64_t ny, int64_t nz) {
-  auto text = std::to_string(nx) + "x" + std::to_string(ny) + "x" +
-              std::to_string(nz);
+  auto text =
+      std::to_string(nx) + "x" + std::to_string(ny) + "x" + std::to_string(nz);
   if (nx < 2 || ny < 2 || nz < 2)
     return "dims " + text + ": every axis needs at least 2 samples";
   auto axis_max = int64_t{1} << 31;
@@ -232,8 +232,8 @@ static vec3f smooth_gradient(const grid_data& grid, vec3i cell, vec3f w) {
   auto g = vec3f{0, 0, 0};
   for (auto c = 0; c < 8; c++) {
     auto dx = c & 1, dy = (c >> 1) & 1, dz = (c >> 2) & 1;
-    auto weight = (dx ? w.x : 1 - w.x) * (dy ? w.y : 1 - w.y) *
-                  (dz ? w.z : 1 - w.z);
+    auto weight =
+        (dx ? w.x : 1 - w.x) * (dy ? w.y : 1 - w.y) * (dz ? w.z : 1 - w.z);
     g += weight * node_gradient(grid, cell.x + dx, cell.y + dy, cell.z + dz);
   }
   return g;

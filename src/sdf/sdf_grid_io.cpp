@@ -40,8 +40,8 @@ mapped_file::mapped_file(const std::string& filename) {
     ::close(fd);
     throw_io_error(filename, "empty file");
   }
-  auto mapping = ::mmap(
-      nullptr, (size_t)info.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
+  auto mapping =
+      ::mmap(nullptr, (size_t)info.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
   ::close(fd);
   if (mapping == MAP_FAILED)
     throw_io_error(
@@ -54,8 +54,8 @@ mapped_file::~mapped_file() {
   if (data) ::munmap((void*)data, size);
 }
 
-output_file::output_file(const std::string& name) :
-    filename{name}, temporary{name + ".tmp"} {
+output_file::output_file(const std::string& name)
+    : filename{name}, temporary{name + ".tmp"} {
   file = std::fopen(temporary.c_str(), "wb");
   if (!file)
     throw_io_error(
@@ -344,8 +344,8 @@ static grid_data load_skanti(const std::string& filename) {
   auto a = [&](int r, int c) {
     return column_major ? m[c * 4 + r] : m[r * 4 + c];
   };
-  auto spacing = std::sqrt(
-      a(0, 0) * a(0, 0) + a(1, 0) * a(1, 0) + a(2, 0) * a(2, 0));
+  auto spacing =
+      std::sqrt(a(0, 0) * a(0, 0) + a(1, 0) * a(1, 0) + a(2, 0) * a(2, 0));
   if (!(spacing > 0))
     throw_at_byte(filename, 16, "grid2world has a zero voxel size");
   for (auto r = 0; r < 3; r++) {

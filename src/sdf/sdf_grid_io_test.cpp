@@ -119,9 +119,7 @@ void check_refused(const std::string& name, const std::string& bytes,
   auto message = std::string{};
   try {
     load_grid(filename, format);
-  } catch (const io_error& error) {
-    message = error.what();
-  }
+  } catch (const io_error& error) { message = error.what(); }
   CAPTURE(message);
   CHECK(message.find(filename) != std::string::npos);
   CHECK(message.find(what) != std::string::npos);
@@ -146,9 +144,9 @@ TEST_CASE("grid io loads every format with odd dims, x fastest") {
   CHECK(sdfgen.origin == vec3f{-1.5f, 2, 0.3f});
 
   // skanti, column major (translation at 12..14) with a pdf channel.
-  auto h        = 0.125f;
-  auto colmajor = std::vector<float>{
-      h, 0, 0, 0, 0, h, 0, 0, 0, 0, h, 0, 1, 2, 3, 1};
+  auto h = 0.125f;
+  auto colmajor =
+      std::vector<float>{h, 0, 0, 0, 0, h, 0, 0, 0, 0, h, 0, 1, 2, 3, 1};
   auto pdf = std::vector<float>(values.size(), 7.0f);
   write_file(
       temp_path("field_col.sdf"), skanti_header({nx, ny, nz}, h, colmajor) +
@@ -159,8 +157,8 @@ TEST_CASE("grid io loads every format with odd dims, x fastest") {
   CHECK(col.origin == vec3f{1, 2, 3});
   // Row major (translation at 3, 7, 11), no pdf, res field wrong (1.0):
   // the matrix wins.
-  auto rowmajor = std::vector<float>{
-      h, 0, 0, 1, 0, h, 0, 2, 0, 0, h, 3, 0, 0, 0, 1};
+  auto rowmajor =
+      std::vector<float>{h, 0, 0, 1, 0, h, 0, 2, 0, 0, h, 3, 0, 0, 0, 1};
   write_file(temp_path("field_row.sdf"),
       skanti_header({nx, ny, nz}, 1.0f, rowmajor) + float_bytes(values));
   auto row = load_grid(temp_path("field_row.sdf"), grid_format::skanti);
@@ -355,12 +353,12 @@ TEST_CASE("grid io refuses bad OpenVDB files") {
 }
 
 TEST_CASE("grid io skanti matrix order is detected on the shared samples") {
-  auto col = load_grid(
-      shared_path("skanti_layout_exact_sphere_colmajor_sdf_pdf.sdf"),
-      grid_format::skanti);
-  auto row = load_grid(
-      shared_path("skanti_layout_exact_sphere_rowmajor_sdf_only.sdf"),
-      grid_format::skanti);
+  auto col =
+      load_grid(shared_path("skanti_layout_exact_sphere_colmajor_sdf_pdf.sdf"),
+          grid_format::skanti);
+  auto row =
+      load_grid(shared_path("skanti_layout_exact_sphere_rowmajor_sdf_only.sdf"),
+          grid_format::skanti);
   for (auto grid : {&col, &row}) {
     CHECK(grid->dims == vec3i{51, 51, 51});
     CHECK(grid->spacing == doctest::Approx(0.025f));
@@ -368,8 +366,8 @@ TEST_CASE("grid io skanti matrix order is detected on the shared samples") {
     // Exact sphere values at grid2world * (i,j,k).
     for (auto [i, j, k] :
         {std::array<int, 3>{0, 0, 0}, {25, 25, 25}, {5, 30, 47}}) {
-      auto p = grid->origin +
-               vec3f{(float)i, (float)j, (float)k} * grid->spacing;
+      auto p =
+          grid->origin + vec3f{(float)i, (float)j, (float)k} * grid->spacing;
       CHECK(grid_value(*grid, i, j, k) ==
             doctest::Approx(length(p) - 0.5f).epsilon(1e-4));
     }

@@ -75,8 +75,8 @@ grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,
   auto nz    = std::max(count(extent.z), int64_t{2});
   auto error = check_grid_dims(nx, ny, nz);
   if (!error.empty()) throw io_error("bake: " + error);
-  auto grid = make_grid(
-      {(int)nx, (int)ny, (int)nz}, spacing, bounds_world.min, 0);
+  auto grid =
+      make_grid({(int)nx, (int)ny, (int)nz}, spacing, bounds_world.min, 0);
 
   // A map that stretches by s scales distances by s: divide it out.
   auto  scale = 1 / max_stretch(local_from_world);

@@ -27,8 +27,8 @@ grid_data sample_grid(vec3i dims, float spacing, F&& f) {
   for (auto k = 0; k < dims.z; k++)
     for (auto j = 0; j < dims.y; j++)
       for (auto i = 0; i < dims.x; i++)
-        grid.values[i + dims.x * (j + (size_t)dims.y * k)] = f(
-            vec3f{(float)i, (float)j, (float)k} * spacing);
+        grid.values[i + dims.x * (j + (size_t)dims.y * k)] =
+            f(vec3f{(float)i, (float)j, (float)k} * spacing);
   update_grid_accel(grid);
   return grid;
 }
@@ -226,19 +226,19 @@ TEST_CASE("grid exact intersection agrees with a dense reference march") {
 TEST_CASE("grid finds a dip inside a single voxel") {
   // f = 0.2 - x*y in one voxel: positive at the ray's ends, negative in the
   // middle of the segment x = s, y = 1 - s. Roots of s^2 - s + 0.2.
-  auto grid = sample_grid(
-      {2, 2, 2}, 1.0f, [](vec3f p) { return 0.2f - p.x * p.y; });
+  auto grid =
+      sample_grid({2, 2, 2}, 1.0f, [](vec3f p) { return 0.2f - p.x * p.y; });
   auto ray   = ray3f{{0, 1, 0.5f}, {1, -1, 0}, 0, flt_max};
   auto t     = 0.0f;
   auto steps = 0;
   REQUIRE(intersect_grid(grid, ray, t, steps));
   CHECK(t == doctest::Approx((1 - std::sqrt(0.2)) / 2).epsilon(1e-5));
   // A barely negative dip (min -1e-4) is still found.
-  auto shallow = sample_grid(
-      {2, 2, 2}, 1.0f, [](vec3f p) { return 0.2501f - p.x * p.y; });
+  auto shallow =
+      sample_grid({2, 2, 2}, 1.0f, [](vec3f p) { return 0.2501f - p.x * p.y; });
   REQUIRE(!intersect_grid(shallow, ray, t, steps));
-  auto deeper = sample_grid(
-      {2, 2, 2}, 1.0f, [](vec3f p) { return 0.2499f - p.x * p.y; });
+  auto deeper =
+      sample_grid({2, 2, 2}, 1.0f, [](vec3f p) { return 0.2499f - p.x * p.y; });
   REQUIRE(intersect_grid(deeper, ray, t, steps));
   CHECK(t == doctest::Approx(0.49).epsilon(2e-3));
 }
@@ -322,11 +322,11 @@ TEST_CASE("grid normals: analytic in the voxel, smooth across voxels") {
     // Across the x voxel face nearest to p.
     auto x = std::round(p.x / 0.05f) * 0.05f;
     auto a = vec3f{x - 1e-4f, p.y, p.z}, b = vec3f{x + 1e-4f, p.y, p.z};
-    jump_plain  = std::max(jump_plain,
-         length(eval_grid_gradient(grid, a) - eval_grid_gradient(grid, b)));
-    jump_smooth = std::max(
-        jump_smooth, length(eval_grid_gradient_smooth(grid, a) -
-                            eval_grid_gradient_smooth(grid, b)));
+    jump_plain = std::max(jump_plain,
+        length(eval_grid_gradient(grid, a) - eval_grid_gradient(grid, b)));
+    jump_smooth =
+        std::max(jump_smooth, length(eval_grid_gradient_smooth(grid, a) -
+                                     eval_grid_gradient_smooth(grid, b)));
   }
   CHECK(jump_smooth < 2e-3f);
   CHECK(jump_plain > 5 * jump_smooth);
@@ -373,8 +373,8 @@ TEST_CASE("grid bake samples an SDF program") {
   node.radius  = 0.5f;
   auto program = make_primitive_program(node);
   // The sphere's local origin sits at world (1, 2, 3).
-  auto local_from_world = frame3f{
-      {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, -2, -3}};
+  auto local_from_world =
+      frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, -2, -3}};
   auto bounds = bbox3f{{0.4f, 1.4f, 2.4f}, {1.6f, 2.6f, 3.6f}};
   auto calls  = 0;
   auto grid   = bake_grid(

@@ -129,8 +129,8 @@ void save_vdb_grid(const std::string& filename, const grid_data& grid) {
   auto level_set = openvdb::FloatGrid::create(3 * grid.spacing);
   level_set->setName("sdf");
   level_set->setGridClass(openvdb::GRID_LEVEL_SET);
-  auto transform = openvdb::math::Transform::createLinearTransform(
-      grid.spacing);
+  auto transform =
+      openvdb::math::Transform::createLinearTransform(grid.spacing);
   transform->postTranslate(
       openvdb::Vec3d(grid.origin.x, grid.origin.y, grid.origin.z));
   level_set->setTransform(transform);

@@ -82,8 +82,8 @@ static void distance_transform_line(
 // voxels to the nearest seed (three separable passes).
 static void distance_transform(std::vector<float>& values, vec3i n) {
   // A finite "infinity" keeps the parabola intersections exact in double.
-  auto infinity = 16.0 *
-                  ((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z);
+  auto infinity =
+      16.0 * ((double)n.x * n.x + (double)n.y * n.y + (double)n.z * n.z);
   int stride[3] = {1, n.x, n.x * n.y};
   int length[3] = {n.x, n.y, n.z};
   for (auto axis = 0; axis < 3; axis++) {
@@ -107,8 +107,8 @@ static void distance_transform(std::vector<float>& values, vec3i n) {
             }
             distance_transform_line(f.data(), m, d.data(), v.data(), z.data());
             for (auto q = 0; q < m; q++)
-              values[start + (size_t)q * stride[axis]] = (float)std::min(
-                  d[q], infinity);
+              values[start + (size_t)q * stride[axis]] =
+                  (float)std::min(d[q], infinity);
           }
         });
   }
@@ -227,10 +227,10 @@ mesh_data grid_to_mesh(const grid_data& grid) {
   // Voxels outside the grid read a huge positive background, so the
   // crossing between a negative boundary sample and the outside sits on
   // the box face: the box closes the surface as in tracing.
-  auto outside   = 1e6f * grid.spacing;
-  auto vdb       = openvdb::FloatGrid::create(outside);
-  auto transform = openvdb::math::Transform::createLinearTransform(
-      grid.spacing);
+  auto outside = 1e6f * grid.spacing;
+  auto vdb     = openvdb::FloatGrid::create(outside);
+  auto transform =
+      openvdb::math::Transform::createLinearTransform(grid.spacing);
   transform->postTranslate(
       openvdb::Vec3d(grid.origin.x, grid.origin.y, grid.origin.z));
   vdb->setTransform(transform);

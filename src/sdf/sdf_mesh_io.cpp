@@ -31,8 +31,8 @@ static std::string path_extension(const std::string& filename) {
 template <typename T>
 static bool parse_token(std::string_view token, T& value) {
   if (!token.empty() && token[0] == '+') token.remove_prefix(1);
-  auto [ptr, ec] = std::from_chars(
-      token.data(), token.data() + token.size(), value);
+  auto [ptr, ec] =
+      std::from_chars(token.data(), token.data() + token.size(), value);
   return ec == std::errc{} && ptr == token.data() + token.size();
 }
 
@@ -407,7 +407,8 @@ static mesh_data load_ply(const std::string& filename) {
 static void save_ply(const std::string& filename, const mesh_data& mesh) {
   auto out = output_file{filename};
   auto header =
-      "ply\nformat binary_little_endian 1.0\ncomment written by ysdf (implicit)\n"
+      "ply\nformat binary_little_endian 1.0\ncomment written by ysdf "
+      "(implicit)\n"
       "element vertex " +
       std::to_string(mesh.positions.size()) +
       "\nproperty float x\nproperty float y\nproperty float z\n"

@@ -59,9 +59,7 @@ std::string load_error(const std::string& name, const std::string& bytes) {
   write_file(filename, bytes);
   try {
     load_mesh(filename);
-  } catch (const io_error& error) {
-    return error.what();
-  }
+  } catch (const io_error& error) { return error.what(); }
   return "";
 }
 
@@ -95,7 +93,8 @@ TEST_CASE("grid mesh OBJ and PLY readers") {
   // Binary PLY by hand: double positions, ushort count, uint indices.
   auto bytes = std::string{
       "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
-      "property double x\nproperty double y\nproperty double z\nproperty uchar flag\n"
+      "property double x\nproperty double y\nproperty double z\nproperty uchar "
+      "flag\n"
       "element face 1\nproperty list ushort uint vertex_index\nend_header\n"};
   for (auto c = 0; c < 3; c++) {
     append(bytes, (double)c);
@@ -167,11 +166,11 @@ TEST_CASE("grid mesh readers refuse bad files") {
   append(bad_index, 5);
   CHECK(load_error("bad_index.ply", bad_index)
             .find("vertex index 5.000000 out of range") != std::string::npos);
-  CHECK(
-      load_error("ascii_junk.ply",
-          "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-          "property float z\nend_header\n1 zz 3\n")
-          .find("'zz' is not a number") != std::string::npos);
+  CHECK(load_error("ascii_junk.ply",
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float "
+            "x\nproperty float y\n"
+            "property float z\nend_header\n1 zz 3\n")
+            .find("'zz' is not a number") != std::string::npos);
 }
 
 TEST_CASE("grid mesh to grid and back") {
@@ -223,9 +222,7 @@ TEST_CASE("grid mesh to grid and back") {
   auto message = std::string{};
   try {
     mesh_to_grid(open, voxel, 3);
-  } catch (const io_error& error) {
-    message = error.what();
-  }
+  } catch (const io_error& error) { message = error.what(); }
   CHECK(message.find("the mesh is not closed") != std::string::npos);
   auto shell = mesh_to_grid(open, voxel, 3, 0.5f * voxel);
   CHECK(compute_grid_stats(shell).surface_voxels > 0);

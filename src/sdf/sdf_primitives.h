@@ -34,8 +34,8 @@ inline float sd_box_frame(vec3f p, vec3f half, float thickness) {
   auto t = [](vec3f a) {
     return length(max(a, 0.0f)) + std::min(max(a), 0.0f);
   };
-  return std::min(std::min(t({q.x, r.y, r.z}), t({r.x, q.y, r.z})),
-      t({r.x, r.y, q.z}));
+  return std::min(
+      std::min(t({q.x, r.y, r.z}), t({r.x, q.y, r.z})), t({r.x, r.y, q.z}));
 }
 
 inline float sd_sphere(vec3f p, float radius) { return length(p) - radius; }
@@ -52,10 +52,12 @@ inline float sd_capped_cone(vec3f p, float height, float r1, float r2) {
   auto q  = vec2f{length(vec2f{p.x, p.z}), p.y};
   auto k1 = vec2f{r2, height};
   auto k2 = vec2f{r2 - r1, 2 * height};
-  auto ca = vec2f{q.x - std::min(q.x, q.y < 0 ? r1 : r2), std::abs(q.y) - height};
+  auto ca =
+      vec2f{q.x - std::min(q.x, q.y < 0 ? r1 : r2), std::abs(q.y) - height};
   auto kk = dot(k2, k2);
-  auto cb = q - k1 + k2 * clamp(kk > 0 ? dot(k1 - q, k2) / kk : 0.0f, 0.0f, 1.0f);
-  auto s  = (cb.x < 0 && ca.y < 0) ? -1.0f : 1.0f;
+  auto cb =
+      q - k1 + k2 * clamp(kk > 0 ? dot(k1 - q, k2) / kk : 0.0f, 0.0f, 1.0f);
+  auto s = (cb.x < 0 && ca.y < 0) ? -1.0f : 1.0f;
   return s * std::sqrt(std::min(dot(ca, ca), dot(cb, cb)));
 }
 
@@ -95,10 +97,14 @@ inline float sd_octahedron(vec3f p, float size) {
   p      = abs(p);
   auto m = p.x + p.y + p.z - size;
   auto q = vec3f{};
-  if (3 * p.x < m) q = p;
-  else if (3 * p.y < m) q = {p.y, p.z, p.x};
-  else if (3 * p.z < m) q = {p.z, p.x, p.y};
-  else return m * 0.57735027f;
+  if (3 * p.x < m)
+    q = p;
+  else if (3 * p.y < m)
+    q = {p.y, p.z, p.x};
+  else if (3 * p.z < m)
+    q = {p.z, p.x, p.y};
+  else
+    return m * 0.57735027f;
   auto k = clamp(0.5f * (q.z - q.y + size), 0.0f, size);
   return length(vec3f{q.x, q.y - size + k, q.z - k});
 }

@@ -91,14 +91,14 @@ static float eval_node(const sdf_program& program, int index, vec3f p) {
   auto& node = program.nodes[index];
   switch (node.type) {
     case sdf_type::op_union:
-      return std::min(eval_node(program, node.left, p),
-          eval_node(program, node.right, p));
+      return std::min(
+          eval_node(program, node.left, p), eval_node(program, node.right, p));
     case sdf_type::op_intersection:
-      return std::max(eval_node(program, node.left, p),
-          eval_node(program, node.right, p));
+      return std::max(
+          eval_node(program, node.left, p), eval_node(program, node.right, p));
     case sdf_type::op_subtraction:
-      return std::max(eval_node(program, node.left, p),
-          -eval_node(program, node.right, p));
+      return std::max(
+          eval_node(program, node.left, p), -eval_node(program, node.right, p));
     case sdf_type::op_smooth_union:
       return smooth_min(eval_node(program, node.left, p),
           eval_node(program, node.right, p), node.blend);
@@ -144,8 +144,8 @@ static bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g) {
         g            = normalize(vec3f{std::copysign(outside.x, q.x),
             std::copysign(outside.y, q.y), std::copysign(outside.z, q.z)});
       } else {
-        auto axis = (d.x > d.y && d.x > d.z) ? 0 : (d.y > d.z ? 1 : 2);
-        g         = {0, 0, 0};
+        auto axis   = (d.x > d.y && d.x > d.z) ? 0 : (d.y > d.z ? 1 : 2);
+        g           = {0, 0, 0};
         at(g, axis) = sign(at(q, axis));
       }
       return true;
@@ -169,7 +169,7 @@ vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step) {
   // evaluations instead of six.
   auto k0 = vec3f{1, -1, -1}, k1 = vec3f{-1, -1, 1}, k2 = vec3f{-1, 1, -1},
        k3 = vec3f{1, 1, 1};
-  g = k0 * eval_sdf(program, p + k0 * step) +
+  g       = k0 * eval_sdf(program, p + k0 * step) +
       k1 * eval_sdf(program, p + k1 * step) +
       k2 * eval_sdf(program, p + k2 * step) +
       k3 * eval_sdf(program, p + k3 * step);
@@ -194,7 +194,8 @@ static bbox3f primitive_bounds(const sdf_node& node) {
       auto r = std::max(node.radius, node.radius2);
       return centered({r, node.height, r});
     }
-    case sdf_type::plane: return {{-flt_inf, 0, -flt_inf}, {flt_inf, 0, flt_inf}};
+    case sdf_type::plane:
+      return {{-flt_inf, 0, -flt_inf}, {flt_inf, 0, flt_inf}};
     case sdf_type::capsule:
       return centered({node.radius, node.height + node.radius, node.radius});
     case sdf_type::cylinder:
@@ -210,11 +211,11 @@ static bbox3f node_bounds(const sdf_program& program, int index) {
   auto& node = program.nodes[index];
   switch (node.type) {
     case sdf_type::op_union:
-      return merge(node_bounds(program, node.left),
-          node_bounds(program, node.right));
+      return merge(
+          node_bounds(program, node.left), node_bounds(program, node.right));
     case sdf_type::op_intersection:
-      return intersect(node_bounds(program, node.left),
-          node_bounds(program, node.right));
+      return intersect(
+          node_bounds(program, node.left), node_bounds(program, node.right));
     case sdf_type::op_subtraction: return node_bounds(program, node.left);
     // The smooth minimum lies at most blend/4 below the minimum, so a
     // smooth union grows by that much; the smooth maximum is never below the
@@ -224,8 +225,8 @@ static bbox3f node_bounds(const sdf_program& program, int index) {
                         node_bounds(program, node.right)),
           node.blend * 0.25f);
     case sdf_type::op_smooth_intersection:
-      return intersect(node_bounds(program, node.left),
-          node_bounds(program, node.right));
+      return intersect(
+          node_bounds(program, node.left), node_bounds(program, node.right));
     case sdf_type::op_smooth_subtraction:
       return node_bounds(program, node.left);
     case sdf_type::op_round:
@@ -233,8 +234,8 @@ static bbox3f node_bounds(const sdf_program& program, int index) {
     case sdf_type::op_onion:
       return expand(node_bounds(program, node.left), node.thickness);
     case sdf_type::op_transform:
-      return transform_bbox(inverse(program.frames[node.frame]),
-          node_bounds(program, node.left));
+      return transform_bbox(
+          inverse(program.frames[node.frame]), node_bounds(program, node.left));
     default: return primitive_bounds(node);
   }
 }

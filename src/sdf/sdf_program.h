@@ -46,11 +46,11 @@ inline bool is_primitive(sdf_type type) { return type < sdf_type::op_union; }
 
 // One node. Parameters are named by meaning; each type reads only its own:
 //   box: size (full size, corner at origin)      bbox: size (half), thickness
-//   sphere: radius                               torus: radius (ring), radius2 (tube)
-//   capped_cone: height (half), radius (bottom), radius2 (top)
-//   plane: none                                  capsule/cylinder: height (half), radius
-//   rounded_box: size (half), radius             ellipsoid: size (semi-axes)
-//   octahedron: radius                           smooth ops: blend
+//   sphere: radius                               torus: radius (ring), radius2
+//   (tube) capped_cone: height (half), radius (bottom), radius2 (top) plane:
+//   none                                  capsule/cylinder: height (half),
+//   radius rounded_box: size (half), radius             ellipsoid: size
+//   (semi-axes) octahedron: radius                           smooth ops: blend
 //   round: radius (added thickness)              onion: thickness (half shell)
 //   transform: frame (child_from_parent), operand left
 // Subtraction removes `right` from `left`.
@@ -71,7 +71,7 @@ struct sdf_node {
 // root is the last node. `frames` hold child_from_parent maps of transforms
 // and `frame_scales` the matching distance factors (1 / largest stretch).
 struct sdf_program {
-  std::vector<sdf_node> nodes       = {};
+  std::vector<sdf_node> nodes        = {};
   std::vector<frame3f>  frames       = {};
   std::vector<float>    frame_scales = {};
 };
@@ -115,8 +115,8 @@ float sdf_lipschitz(const sdf_program& program);
 // Closed-form intersection of a single-primitive program, when one exists
 // (sphere, box, plane). Returns false when the program has none; otherwise
 // `hit` tells whether the ray hits in [tmin, tmax] and `t` is the first hit.
-bool intersect_sdf_exact(const sdf_program& program, const ray3f& ray,
-    bool& hit, float& t);
+bool intersect_sdf_exact(
+    const sdf_program& program, const ray3f& ray, bool& hit, float& t);
 // Whether intersect_sdf_exact() applies to this program.
 bool has_exact_intersection(const sdf_program& program);
 

@@ -25,13 +25,17 @@ TEST_CASE("sdf primitives: seed types at known points") {
   CHECK(eval_primitive(box, {-3, -4, 2}) == doctest::Approx(5.0f));  // 3-4-5
   CHECK(eval_primitive(box, {2, 1, 4}) == doctest::Approx(0.0f));
   // bbox: half sizes centred, bars of width t flush with the box faces.
-  auto frame = make_node(sdf_type::bbox);
-  frame.size = {1, 1, 1};
+  auto frame      = make_node(sdf_type::bbox);
+  frame.size      = {1, 1, 1};
   frame.thickness = 0.1f;
-  CHECK(eval_primitive(frame, {1, 1, 0}) == doctest::Approx(0.0f));  // outer edge
-  CHECK(eval_primitive(frame, {0.95f, 0.95f, 0}) == doctest::Approx(-0.05f));  // in a bar
-  CHECK(eval_primitive(frame, {0, 0, 0}) == doctest::Approx(std::sqrt(2.0f) * 0.8f));
-  CHECK(eval_primitive(frame, {1, 1, 2}) == doctest::Approx(1.0f));  // beyond a corner
+  CHECK(
+      eval_primitive(frame, {1, 1, 0}) == doctest::Approx(0.0f));  // outer edge
+  CHECK(eval_primitive(frame, {0.95f, 0.95f, 0}) ==
+        doctest::Approx(-0.05f));  // in a bar
+  CHECK(eval_primitive(frame, {0, 0, 0}) ==
+        doctest::Approx(std::sqrt(2.0f) * 0.8f));
+  CHECK(eval_primitive(frame, {1, 1, 2}) ==
+        doctest::Approx(1.0f));  // beyond a corner
   // sphere.
   auto sphere   = make_node(sdf_type::sphere);
   sphere.radius = 0.5f;
@@ -50,10 +54,14 @@ TEST_CASE("sdf primitives: seed types at known points") {
   cone.height  = 1;
   cone.radius  = 1;
   cone.radius2 = 0.5f;
-  CHECK(eval_primitive(cone, {0, 2, 0}) == doctest::Approx(1.0f));    // above the top cap
-  CHECK(eval_primitive(cone, {0, -1.5f, 0}) == doctest::Approx(0.5f));  // below the bottom
-  CHECK(eval_primitive(cone, {0, 0, 0}) == doctest::Approx(-0.727607f).epsilon(1e-4));
-  CHECK(eval_primitive(cone, {0.75f, 0, 0}) == doctest::Approx(0.0f).epsilon(1e-5));
+  CHECK(eval_primitive(cone, {0, 2, 0}) ==
+        doctest::Approx(1.0f));  // above the top cap
+  CHECK(eval_primitive(cone, {0, -1.5f, 0}) ==
+        doctest::Approx(0.5f));  // below the bottom
+  CHECK(eval_primitive(cone, {0, 0, 0}) ==
+        doctest::Approx(-0.727607f).epsilon(1e-4));
+  CHECK(eval_primitive(cone, {0.75f, 0, 0}) ==
+        doctest::Approx(0.0f).epsilon(1e-5));
   // plane y = 0.
   auto plane = make_node(sdf_type::plane);
   CHECK(eval_primitive(plane, {5, -2, 7}) == doctest::Approx(-2.0f));
@@ -69,7 +77,8 @@ TEST_CASE("sdf primitives: new types at known points") {
   cylinder.height = 1;
   cylinder.radius = 0.5f;
   CHECK(eval_primitive(cylinder, {0, 0, 0}) == doctest::Approx(-0.5f));
-  CHECK(eval_primitive(cylinder, {1.5f, 2, 0}) == doctest::Approx(std::sqrt(2.0f)));
+  CHECK(eval_primitive(cylinder, {1.5f, 2, 0}) ==
+        doctest::Approx(std::sqrt(2.0f)));
   auto rounded   = make_node(sdf_type::rounded_box);
   rounded.size   = {1, 1, 1};
   rounded.radius = 0.25f;
@@ -152,10 +161,10 @@ TEST_CASE("sdf programs: bounds contain the surface and are tight") {
   CHECK(in.max.x == doctest::Approx(0.5f));
   // Random points outside the bounds of each primitive are outside it.
   auto rng = make_rng(7);
-  for (auto type : {sdf_type::box, sdf_type::bbox, sdf_type::sphere,
-           sdf_type::torus, sdf_type::capped_cone, sdf_type::capsule,
-           sdf_type::cylinder, sdf_type::rounded_box, sdf_type::ellipsoid,
-           sdf_type::octahedron}) {
+  for (auto type :
+      {sdf_type::box, sdf_type::bbox, sdf_type::sphere, sdf_type::torus,
+          sdf_type::capped_cone, sdf_type::capsule, sdf_type::cylinder,
+          sdf_type::rounded_box, sdf_type::ellipsoid, sdf_type::octahedron}) {
     auto node      = make_node(type);
     node.size      = {0.3f, 0.5f, 0.7f};
     node.radius    = 0.25f;
@@ -173,10 +182,10 @@ TEST_CASE("sdf programs: bounds contain the surface and are tight") {
 }
 
 TEST_CASE("sdf programs: Lipschitz bound holds on random pairs") {
-  auto rng = make_rng(11);
-  auto programs = std::vector<sdf_program>{two_spheres(sdf_type::op_union),
-      two_spheres(sdf_type::op_smooth_union, 0.5f),
-      two_spheres(sdf_type::op_smooth_subtraction, 0.3f)};
+  auto rng       = make_rng(11);
+  auto programs  = std::vector<sdf_program>{two_spheres(sdf_type::op_union),
+       two_spheres(sdf_type::op_smooth_union, 0.5f),
+       two_spheres(sdf_type::op_smooth_subtraction, 0.3f)};
   auto ellipsoid = make_node(sdf_type::ellipsoid);
   ellipsoid.size = {1, 0.25f, 0.5f};
   programs.push_back(make_primitive_program(ellipsoid));
@@ -185,7 +194,8 @@ TEST_CASE("sdf programs: Lipschitz bound holds on random pairs") {
     for (auto k = 0; k < 5000; k++) {
       auto p = vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} * 6 - 3;
       auto q = p + (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 0.2f;
-      auto slope = std::abs(eval_sdf(program, p) - eval_sdf(program, q)) / distance(p, q);
+      auto slope = std::abs(eval_sdf(program, p) - eval_sdf(program, q)) /
+                   distance(p, q);
       CHECK(slope <= lipschitz * 1.001f + 1e-4f);
     }
   }
@@ -193,10 +203,10 @@ TEST_CASE("sdf programs: Lipschitz bound holds on random pairs") {
 
 TEST_CASE("sdf programs: gradients") {
   // Analytic box gradient on a box thinner than any finite-difference step.
-  auto box = make_node(sdf_type::box);
-  box.size = {2, 1e-5f, 2};
+  auto box     = make_node(sdf_type::box);
+  box.size     = {2, 1e-5f, 2};
   auto program = make_primitive_program(box);
-  auto g = eval_sdf_gradient(program, {1, 1e-5f, 1}, 1e-3f);
+  auto g       = eval_sdf_gradient(program, {1, 1e-5f, 1}, 1e-3f);
   CHECK(g.y == doctest::Approx(1.0f));
   g = eval_sdf_gradient(program, {1, -1e-6f, 1}, 1e-3f);
   CHECK(g.y == doctest::Approx(-1.0f));
@@ -212,7 +222,8 @@ TEST_CASE("sdf programs: gradients") {
   auto torus    = make_node(sdf_type::torus);
   torus.radius  = 1;
   torus.radius2 = 0.25f;
-  auto tg = eval_sdf_gradient(make_primitive_program(torus), {0, 0.25f, 1}, 1e-4f);
+  auto tg =
+      eval_sdf_gradient(make_primitive_program(torus), {0, 0.25f, 1}, 1e-4f);
   CHECK(tg.y == doctest::Approx(1.0f));
 }
 
@@ -220,9 +231,10 @@ TEST_CASE("sdf programs: exact intersections") {
   auto sphere   = make_node(sdf_type::sphere);
   sphere.radius = 1;
   auto program  = make_primitive_program(sphere);
-  auto hit = false;
-  auto t   = 0.0f;
-  REQUIRE(intersect_sdf_exact(program, {{0, 0, -5}, {0, 0, 1}, 0, flt_max}, hit, t));
+  auto hit      = false;
+  auto t        = 0.0f;
+  REQUIRE(intersect_sdf_exact(
+      program, {{0, 0, -5}, {0, 0, 1}, 0, flt_max}, hit, t));
   CHECK(hit);
   CHECK(t == doctest::Approx(4.0f));
   // From inside: the exit.
@@ -240,17 +252,21 @@ TEST_CASE("sdf programs: exact intersections") {
   // Box with corner at origin; a ray parallel to a face inside the slab.
   auto box = make_node(sdf_type::box);
   box.size = {1, 2, 3};
-  intersect_sdf_exact(make_primitive_program(box), {{-1, 1, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
+  intersect_sdf_exact(
+      make_primitive_program(box), {{-1, 1, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
   CHECK(hit);
   CHECK(t == doctest::Approx(1.0f));
-  intersect_sdf_exact(make_primitive_program(box), {{-1, 2.5f, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
+  intersect_sdf_exact(make_primitive_program(box),
+      {{-1, 2.5f, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
   CHECK(!hit);
   // Plane.
   auto plane = make_node(sdf_type::plane);
-  intersect_sdf_exact(make_primitive_program(plane), {{0, 2, 0}, {0, -1, 0}, 0, flt_max}, hit, t);
+  intersect_sdf_exact(make_primitive_program(plane),
+      {{0, 2, 0}, {0, -1, 0}, 0, flt_max}, hit, t);
   CHECK(hit);
   CHECK(t == doctest::Approx(2.0f));
-  intersect_sdf_exact(make_primitive_program(plane), {{0, 2, 0}, {1, 0, 0}, 0, flt_max}, hit, t);
+  intersect_sdf_exact(make_primitive_program(plane),
+      {{0, 2, 0}, {1, 0, 0}, 0, flt_max}, hit, t);
   CHECK(!hit);
   // Not applicable to operators.
   CHECK(!has_exact_intersection(two_spheres(sdf_type::op_union)));

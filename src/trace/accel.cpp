@@ -7,7 +7,6 @@
 #include "accel_embree.h"
 #include "sphere_trace.h"
 
-
 namespace implicit {
 
 // -----------------------------------------------------------------------------
@@ -19,7 +18,8 @@ static void finish_object(trace_object& object) {
   object.world_from_local = inverse(object.local_from_world);
   auto stretch            = max_stretch(object.local_from_world);
   object.distance_scale   = stretch > 0 ? 1 / stretch : 0;
-  object.world_bounds = transform_bbox(object.world_from_local, object.local_bounds);
+  object.world_bounds =
+      transform_bbox(object.world_from_local, object.local_bounds);
 }
 
 accel_data make_accel(
@@ -50,8 +50,8 @@ accel_data make_accel(
     object.material = instance.material;
     object.grid     = &scene.volumes.at(instance.volume).grid;
     // Grid space = instance space divided by the scale.
-    auto unscale = frame3f{{1 / instance.scale, 0, 0}, {0, 1 / instance.scale, 0},
-        {0, 0, 1 / instance.scale}, {0, 0, 0}};
+    auto unscale            = frame3f{{1 / instance.scale, 0, 0},
+        {0, 1 / instance.scale, 0}, {0, 0, 1 / instance.scale}, {0, 0, 0}};
     object.local_from_world = unscale * instance.local_from_world;
     object.local_bounds     = grid_bounds(*object.grid);
     object.exact            = true;
@@ -74,14 +74,15 @@ accel_data make_accel(
   // Scene size from the finite extents (planes are infinite along two axes).
   for (auto& object : accel.objects) {
     accel.extent = merge(accel.extent, object.world_bounds);
-    auto box = object.world_bounds;
+    auto box     = object.world_bounds;
     for (auto a = 0; a < 3; a++) {
       if (!std::isfinite(at(box.min, a))) at(box.min, a) = 0;
       if (!std::isfinite(at(box.max, a))) at(box.max, a) = 0;
     }
     accel.bounds = merge(accel.bounds, box);
   }
-  accel.size    = is_empty(accel.bounds) ? 1 : std::max(length(size(accel.bounds)), 1e-6f);
+  accel.size =
+      is_empty(accel.bounds) ? 1 : std::max(length(size(accel.bounds)), 1e-6f);
   accel.hit_min = accel.march.scene_epsilon * accel.size;
   // Local boxes are padded by the world padding mapped to local units (the
   // largest stretch of local_from_world).
@@ -92,7 +93,8 @@ accel_data make_accel(
   // boxes (an intersection of disjoint shapes) can never be hit.
   for (auto i = 0; i < (int)accel.objects.size(); i++) {
     auto& box = accel.objects[i].world_bounds;
-    if (is_empty(box) || box.min.y > box.max.y || box.min.z > box.max.z) continue;
+    if (is_empty(box) || box.min.y > box.max.y || box.min.z > box.max.z)
+      continue;
     if (is_finite(box)) {
       accel.bounded.push_back(i);
     } else {
@@ -127,7 +129,8 @@ float eval_object_distance(const trace_object& object, vec3f p_world) {
          object.distance_scale;
 }
 
-vec3f eval_object_normal(const trace_object& object, vec3f p_world, float step) {
+vec3f eval_object_normal(
+    const trace_object& object, vec3f p_world, float step) {
   auto p     = transform_point(object.local_from_world, p_world);
   auto local = vec3f{};
   // Finite-difference step in local units.
@@ -139,9 +142,9 @@ vec3f eval_object_normal(const trace_object& object, vec3f p_world, float step) 
     case object_kind::grid: local = eval_grid_gradient(*object.grid, p); break;
     case object_kind::user: {
       auto& f  = object.user->eval;
-      auto  k0 = vec3f{1, -1, -1}, k1 = vec3f{-1, -1, 1},
-           k2 = vec3f{-1, 1, -1}, k3 = vec3f{1, 1, 1};
-      local = k0 * f(p + k0 * h) + k1 * f(p + k1 * h) + k2 * f(p + k2 * h) +
+      auto  k0 = vec3f{1, -1, -1}, k1 = vec3f{-1, -1, 1}, k2 = vec3f{-1, 1, -1},
+           k3 = vec3f{1, 1, 1};
+      local   = k0 * f(p + k0 * h) + k1 * f(p + k1 * h) + k2 * f(p + k2 * h) +
               k3 * f(p + k3 * h);
       break;
     }
@@ -286,8 +289,8 @@ static scene_intersection intersect_reference(
   // The reference keeps Keinert's fixed over-relaxation.
   auto params   = accel.march;
   params.planar = 0;
-  auto march    = sphere_trace(
-      distance, ray.tmin, t1, flt_max, params, accel.hit_min);
+  auto march =
+      sphere_trace(distance, ray.tmin, t1, flt_max, params, accel.hit_min);
   auto isec        = scene_intersection{};
   isec.evaluations = march.evaluations * (int)accel.objects.size();
   if (march.hit) {
@@ -301,7 +304,8 @@ static scene_intersection intersect_reference(
 }
 
 // Whether `isec` replaces `best`: closer, or as close with a lower index.
-static bool is_closer(const scene_intersection& isec, const scene_intersection& best) {
+static bool is_closer(
+    const scene_intersection& isec, const scene_intersection& best) {
   if (!isec.hit) return false;
   if (!best.hit) return true;
   return isec.distance < best.distance ||
@@ -334,7 +338,7 @@ static bool enter_bbox(
 // result is the same: each object's march ignores the visiting order.
 static scene_intersection intersect_linear(
     const accel_data& accel, const ray3f& ray) {
-  auto inverse = vec3f{1 / ray.d.x, 1 / ray.d.y, 1 / ray.d.z};
+  auto  inverse = vec3f{1 / ray.d.x, 1 / ray.d.y, 1 / ray.d.z};
   float entries[linear_max_objects];
   int   indices[linear_max_objects];
   auto  count = 0;
@@ -367,7 +371,8 @@ static bool intersect_linear_any(const accel_data& accel, const ray3f& ray) {
   for (auto k = 0; k < (int)accel.bounded.size(); k++) {
     auto t0 = 0.0f;
     if (!enter_bbox(ray, inverse, accel.bounded_boxes[k], t0)) continue;
-    if (intersect_object(accel, accel.bounded[k], ray, ray.tmax).hit) return true;
+    if (intersect_object(accel, accel.bounded[k], ray, ray.tmax).hit)
+      return true;
   }
   return false;
 }
@@ -388,7 +393,8 @@ scene_intersection intersect_scene(const accel_data& accel, const ray3f& ray) {
 }
 
 bool intersect_scene_any(const accel_data& accel, const ray3f& ray) {
-  if (accel.type == accel_type::none) return intersect_reference(accel, ray).hit;
+  if (accel.type == accel_type::none)
+    return intersect_reference(accel, ray).hit;
   for (auto index : accel.unbounded)
     if (intersect_object(accel, index, ray, ray.tmax).hit) return true;
   return uses_bvh(accel) ? intersect_embree_any(accel, ray)

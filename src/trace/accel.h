@@ -49,9 +49,9 @@ struct march_params {
   float planar         = 0.9f;   // Balint & Valasek 2018, replaces the
                                  // above when > 0; the reference mode
                                  // keeps Keinert's steps
-  float fallback       = 2;      // closest approach within this many
+  float fallback = 2;            // closest approach within this many
                                  // thresholds counts as a hit
-  int   linear_max     = 8;      // up to this many bounded objects are
+  int linear_max = 8;            // up to this many bounded objects are
                                  // tested in a loop, not through the BVH
 };
 
@@ -74,7 +74,7 @@ struct trace_object {
   float                distance_scale   = 1;
   bbox3f               local_bounds     = {};
   bbox3f               world_bounds     = {};
-  float                local_padding    = 0;  // box padding, local units
+  float                local_padding    = 0;      // box padding, local units
   bool                 exact            = false;  // closed-form intersection
   const sdf_program*   program          = nullptr;
   const grid_data*     grid             = nullptr;
@@ -87,8 +87,8 @@ struct embree_bvh {
   RTCDeviceTy* device = nullptr;
   RTCSceneTy*  scene  = nullptr;
 
-  embree_bvh() = default;
-  embree_bvh(const embree_bvh&) = delete;
+  embree_bvh()                             = default;
+  embree_bvh(const embree_bvh&)            = delete;
   embree_bvh& operator=(const embree_bvh&) = delete;
   embree_bvh(embree_bvh&& other) noexcept;
   embree_bvh& operator=(embree_bvh&& other) noexcept;
@@ -98,14 +98,14 @@ struct embree_bvh {
 // The objects and what the tracer needs to know about the whole scene.
 // Move-only (it owns the BVH); objects must not change after make_accel().
 struct accel_data {
-  accel_type                type      = accel_type::bvh;
-  std::vector<trace_object> objects   = {};
-  bbox3f                    bounds    = {};  // finite bounds of all objects
-  bbox3f                    extent    = {};  // all bounds, maybe infinite
-  float                     size      = 1;   // diagonal of bounds
-  float                     hit_min   = 1e-6f;
-  march_params              march     = {};
-  std::vector<int>          bounded   = {};  // BVH primitive -> object
+  accel_type                type          = accel_type::bvh;
+  std::vector<trace_object> objects       = {};
+  bbox3f                    bounds        = {};  // finite bounds of all objects
+  bbox3f                    extent        = {};  // all bounds, maybe infinite
+  float                     size          = 1;   // diagonal of bounds
+  float                     hit_min       = 1e-6f;
+  march_params              march         = {};
+  std::vector<int>          bounded       = {};  // BVH primitive -> object
   std::vector<bbox3f>       bounded_boxes = {};  // their padded world boxes
   std::vector<int>          unbounded = {};  // objects tested beside the BVH
   embree_bvh                bvh       = {};  // see march_params::linear_max

@@ -71,7 +71,8 @@ embree_bvh make_embree_bvh(const accel_data& accel) {
   auto bvh = embree_bvh{};
   if (accel.bounded.empty()) return bvh;
   bvh.device = rtcNewDevice(nullptr);
-  if (!bvh.device) throw io_error("embree: rtcNewDevice: cannot create a device");
+  if (!bvh.device)
+    throw io_error("embree: rtcNewDevice: cannot create a device");
   // Embree's box tests are in float: widen each box a little more than the
   // interval that intersect_object() clips to, relative to its coordinates.
   auto data = embree_build_data{};
@@ -131,16 +132,16 @@ static void embree_intersect(const RTCIntersectFunctionNArguments* args) {
   if (isec.distance == tfar && context.object != invalidid &&
       context.object < object)
     return;
-  rayhit.ray.tfar    = isec.distance;
-  rayhit.hit.geomID  = args->geomID;
-  rayhit.hit.primID  = args->primID;
-  rayhit.hit.u       = 0;
-  rayhit.hit.v       = 0;
-  rayhit.hit.Ng_x    = 0;
-  rayhit.hit.Ng_y    = 0;
-  rayhit.hit.Ng_z    = 0;
-  context.object     = object;
-  context.epsilon    = isec.epsilon;
+  rayhit.ray.tfar   = isec.distance;
+  rayhit.hit.geomID = args->geomID;
+  rayhit.hit.primID = args->primID;
+  rayhit.hit.u      = 0;
+  rayhit.hit.v      = 0;
+  rayhit.hit.Ng_x   = 0;
+  rayhit.hit.Ng_y   = 0;
+  rayhit.hit.Ng_z   = 0;
+  context.object    = object;
+  context.epsilon   = isec.epsilon;
 }
 
 // Occluded callback: any hit of the object ends the query (tfar = -inf is
@@ -151,26 +152,26 @@ static void embree_occluded(const RTCOccludedFunctionNArguments* args) {
   auto& context = *(embree_context*)args->context;
   auto& ray     = *(RTCRay*)args->ray;
   auto  object  = context.accel->bounded[args->primID];
-  auto  isec    = intersect_object(
-      *context.accel, object, *context.ray, context.ray->tmax);
+  auto  isec =
+      intersect_object(*context.accel, object, *context.ray, context.ray->tmax);
   context.evaluations += isec.evaluations;
   if (isec.hit) ray.tfar = -flt_inf;
 }
 
 // Embree's ray for one of ours.
 static RTCRay make_embree_ray(const ray3f& ray) {
-  auto result   = RTCRay{};
-  result.org_x  = ray.o.x;
-  result.org_y  = ray.o.y;
-  result.org_z  = ray.o.z;
-  result.dir_x  = ray.d.x;
-  result.dir_y  = ray.d.y;
-  result.dir_z  = ray.d.z;
-  result.tnear  = ray.tmin;
-  result.tfar   = ray.tmax;
-  result.mask   = 0xffffffffu;
-  result.flags  = 0;
-  result.time   = 0;
+  auto result  = RTCRay{};
+  result.org_x = ray.o.x;
+  result.org_y = ray.o.y;
+  result.org_z = ray.o.z;
+  result.dir_x = ray.d.x;
+  result.dir_y = ray.d.y;
+  result.dir_z = ray.d.z;
+  result.tnear = ray.tmin;
+  result.tfar  = ray.tmax;
+  result.mask  = 0xffffffffu;
+  result.flags = 0;
+  result.time  = 0;
   return result;
 }
 
@@ -181,10 +182,10 @@ scene_intersection intersect_embree(const accel_data& accel, const ray3f& ray) {
   context.accel = &accel;
   context.ray   = &ray;
   rtcInitIntersectContext(&context.context);
-  auto rayhit         = RTCRayHit{};
-  rayhit.ray          = make_embree_ray(ray);
-  rayhit.hit.geomID   = RTC_INVALID_GEOMETRY_ID;
-  rayhit.hit.primID   = RTC_INVALID_GEOMETRY_ID;
+  auto rayhit       = RTCRayHit{};
+  rayhit.ray        = make_embree_ray(ray);
+  rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rayhit.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(accel.bvh.scene, &context.context, &rayhit);
   isec.evaluations = context.evaluations;
   if (context.object != invalidid) {

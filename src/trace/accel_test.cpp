@@ -90,8 +90,8 @@ TEST_CASE("accel: grazing rays near silhouettes do not leak") {
     auto accel = make_accel(scene, type, {});
     for (auto k = 1; k <= 50; k++) {
       auto offset = 0.25f * k / 1000.0f;  // up to 5% of the tube radius
-      auto inner  = intersect_scene(accel, {{-3, 0.25f - offset, 1}, {1, 0, 0}});
-      auto outer  = intersect_scene(accel, {{-3, 0.25f + offset, 1}, {1, 0, 0}});
+      auto inner = intersect_scene(accel, {{-3, 0.25f - offset, 1}, {1, 0, 0}});
+      auto outer = intersect_scene(accel, {{-3, 0.25f + offset, 1}, {1, 0, 0}});
       CHECK(inner.hit);
       // Closer than the closest-approach tolerance counts as touching.
       auto tolerance = accel.march.fallback * hit_epsilon(accel, 4.0f);
@@ -119,7 +119,8 @@ TEST_CASE("accel: normals and no self-hit after spawning") {
   auto rng   = make_rng(3);
   for (auto k = 0; k < 500; k++) {
     // Random rays at the torus from outside.
-    auto target = vec3f{4, 0, 0} + (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 2.5f;
+    auto target = vec3f{4, 0, 0} +
+                  (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 2.5f;
     auto origin = target + sample_sphere(rand2f(rng)) * 3;
     auto ray    = ray3f{origin, normalize(target - origin)};
     auto isec   = intersect_scene(accel, ray);
@@ -127,9 +128,9 @@ TEST_CASE("accel: normals and no self-hit after spawning") {
     auto p = ray_point(ray, isec.distance);
     auto n = eval_object_normal(accel.objects[1], p, isec.epsilon * 0.5f);
     // The normal matches the torus's exact normal.
-    auto q      = p - vec3f{4, 0, 0};
-    auto ring   = normalize(vec3f{q.x, 0, q.z});
-    auto exact  = normalize(q - ring);
+    auto q     = p - vec3f{4, 0, 0};
+    auto ring  = normalize(vec3f{q.x, 0, q.z});
+    auto exact = normalize(q - ring);
     CHECK(dot(n, exact) > 0.999f);
     // Leaving on the outside along a direction in the upper hemisphere must
     // not hit the torus at distance ~0.
@@ -142,15 +143,15 @@ TEST_CASE("accel: normals and no self-hit after spawning") {
 }
 
 TEST_CASE("accel: world bounds of rotated and scaled objects") {
-  auto scene    = scene_data{};
+  auto scene = scene_data{};
   scene.materials.push_back({});
   auto function = make_function(torus_node(1, 0.25f), {0, 0, 0});
   // World -> local that rotates 90 degrees about z and scales by 2:
   // the torus axis becomes world x and its size halves.
   function.local_from_world = {{0, 2, 0}, {-2, 0, 0}, {0, 0, 2}, {0, 0, 0}};
   scene.sdfunctions.push_back(function);
-  auto accel = make_accel(scene, accel_type::bvh, {});
-  auto& box  = accel.objects[0].world_bounds;
+  auto  accel = make_accel(scene, accel_type::bvh, {});
+  auto& box   = accel.objects[0].world_bounds;
   CHECK(box.min.x == doctest::Approx(-0.125f));
   CHECK(box.max.y == doctest::Approx(0.625f));
   CHECK(accel.objects[0].distance_scale == doctest::Approx(0.5f));
@@ -166,7 +167,8 @@ TEST_CASE("accel: world bounds of rotated and scaled objects") {
 
 // `count` random boxes, spheres, tori and capped cones in [-4,4]^3, rotated
 // and scaled unevenly (so distance bounds are not exact), over a floor plane.
-static scene_data make_random_scene(int count, uint64_t seed, bool floor = true) {
+static scene_data make_random_scene(
+    int count, uint64_t seed, bool floor = true) {
   auto scene = scene_data{};
   auto rng   = make_rng(seed);
   scene.materials.push_back({});
@@ -197,13 +199,14 @@ static scene_data make_random_scene(int count, uint64_t seed, bool floor = true)
     }
     auto axes  = basis_fromz(sample_sphere(rand2f(rng)));
     auto scale = vec3f{0.6f + 0.8f * rand1f(rng), 0.6f + 0.8f * rand1f(rng),
-        0.6f + 0.8f * rand1f(rng)} * 1.5f;
+                     0.6f + 0.8f * rand1f(rng)} *
+                 1.5f;
     auto world_from_local = frame3f{
         axes.x * scale.x, axes.y * scale.y, axes.z * scale.z, {0, 0, 0}};
     auto center = (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 8;
     world_from_local.o = center - transform_vector(world_from_local, half);
-    auto function             = sdf_function_data{};
-    function.program          = make_primitive_program(node);
+    auto function      = sdf_function_data{};
+    function.program   = make_primitive_program(node);
     function.local_from_world = inverse(world_from_local);
     function.material         = 0;
     scene.sdfunctions.push_back(function);
@@ -242,7 +245,8 @@ static march_params bvh_params(int linear_max) {
 
 // The closest hit as the minimum of intersect_object() over all objects,
 // equal distances going to the lower index.
-static scene_intersection intersect_all(const accel_data& accel, const ray3f& ray) {
+static scene_intersection intersect_all(
+    const accel_data& accel, const ray3f& ray) {
   auto best = scene_intersection{};
   for (auto i = 0; i < (int)accel.objects.size(); i++) {
     auto isec = intersect_object(accel, i, ray);
@@ -279,9 +283,9 @@ TEST_CASE("accel: BVH hits equal the minimum over all objects") {
 
 TEST_CASE("accel: sorted loop and BVH give the same hits") {
   // 12 objects: under linear_max_objects, so both paths apply.
-  auto scene  = make_random_scene(12, 3);
-  auto loop   = make_accel(scene, accel_type::bvh, bvh_params(16));
-  auto bvh    = make_accel(scene, accel_type::bvh, bvh_params(0));
+  auto scene = make_random_scene(12, 3);
+  auto loop  = make_accel(scene, accel_type::bvh, bvh_params(16));
+  auto bvh   = make_accel(scene, accel_type::bvh, bvh_params(0));
   CHECK(loop.bvh.scene == nullptr);
   CHECK(bvh.bvh.scene != nullptr);
   for (auto& ray : make_random_rays(3000, 4)) {
@@ -322,7 +326,8 @@ TEST_CASE("accel: BVH is thread-safe and deterministic") {
 static bool grazes(
     const accel_data& accel, int object, const ray3f& ray, float tolerance) {
   auto t0 = 0.0f, t1 = 0.0f;
-  if (!intersect_bbox(ray, accel.objects[object].world_bounds, t0, t1)) return true;
+  if (!intersect_bbox(ray, accel.objects[object].world_bounds, t0, t1))
+    return true;
   auto samples = 4000;
   for (auto k = 0; k <= samples; k++) {
     auto t = t0 + (t1 - t0) * k / samples;
@@ -336,18 +341,19 @@ TEST_CASE("accel: BVH and reference mode agree on random scenes") {
   // Camera rays over random scenes: the same hits except on silhouettes that
   // the ray grazes within the closest-approach tolerance.
   for (auto seed : {7, 8}) {
-    auto scene  = make_random_scene(24, (uint64_t)seed);
-    auto fast   = make_accel(scene, accel_type::bvh, bvh_params(0));
-    auto slow   = make_accel(scene, accel_type::none, {});
-    auto camera = camera_data{};
+    auto scene    = make_random_scene(24, (uint64_t)seed);
+    auto fast     = make_accel(scene, accel_type::bvh, bvh_params(0));
+    auto slow     = make_accel(scene, accel_type::none, {});
+    auto camera   = camera_data{};
     camera.frame  = lookat_frame({3, 6, 14}, {0, -1, 0}, {0, 1, 0});
     camera.aspect = 1;
     auto size = 48, same = 0, grazing = 0;
     for (auto j = 0; j < size; j++) {
       for (auto i = 0; i < size; i++) {
-        auto ray = eval_camera(camera, {(i + 0.5f) / size, (j + 0.5f) / size}, {0, 0});
-        auto a   = intersect_scene(fast, ray);
-        auto b   = intersect_scene(slow, ray);
+        auto ray =
+            eval_camera(camera, {(i + 0.5f) / size, (j + 0.5f) / size}, {0, 0});
+        auto a = intersect_scene(fast, ray);
+        auto b = intersect_scene(slow, ray);
         // Marched hits stop within the threshold of the surface, so along
         // grazing rays their distance may differ by more than it.
         if (a.hit == b.hit &&
@@ -369,7 +375,7 @@ TEST_CASE("accel: BVH and reference mode agree on random scenes") {
 }
 
 TEST_CASE("accel: BVH and reference images are equal") {
-  auto scene = make_random_scene(16, 9);
+  auto scene    = make_random_scene(16, 9);
   auto camera   = camera_data{};
   camera.frame  = lookat_frame({-4, 5, 13}, {0, -1, 0}, {0, 1, 0});
   camera.aspect = 1;
@@ -378,7 +384,7 @@ TEST_CASE("accel: BVH and reference images are equal") {
   params.resolution = 64;
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
-  auto render = [&](accel_type type) {
+  auto render       = [&](accel_type type) {
     auto accel  = make_accel(scene, type, bvh_params(0));
     auto lights = make_lights(scene, accel);
     auto state  = make_state(scene, params);
@@ -389,7 +395,8 @@ TEST_CASE("accel: BVH and reference images are equal") {
   auto equal = 0;
   for (size_t k = 0; k < fast.pixels.size(); k++) {
     auto a = fast.pixels[k], b = slow.pixels[k];
-    equal += std::abs(a.x - b.x) <= 1 / 255.0f && std::abs(a.y - b.y) <= 1 / 255.0f &&
+    equal += std::abs(a.x - b.x) <= 1 / 255.0f &&
+             std::abs(a.y - b.y) <= 1 / 255.0f &&
              std::abs(a.z - b.z) <= 1 / 255.0f && a.w == b.w;
   }
   CHECK(equal >= (int)fast.pixels.size() * 995 / 1000);
@@ -438,7 +445,7 @@ TEST_CASE("accel: rays starting inside objects reach their exit") {
       auto& object = accel.objects[i];
       auto  center = transform_point(object.world_from_local,
           i % 4 == 0 ? scene.sdfunctions[i].program.nodes[0].size * 0.5f
-                     : vec3f{0, 0, 0});
+                      : vec3f{0, 0, 0});
       if (i % 4 == 2) continue;  // the centre of a torus is outside it
       REQUIRE(eval_object_distance(object, center) < 0);
       for (auto k = 0; k < 8; k++) {
@@ -490,7 +497,8 @@ TEST_CASE("accel: rays parallel to box faces") {
   scene.sdfunctions.push_back(make_function(box, {0, 0, 0}));
   // Enough far-away spheres to make the BVH worth it.
   for (auto k = 0; k < 10; k++)
-    scene.sdfunctions.push_back(make_function(sphere_node(0.1f), {k * 1.0f, 20, 0}));
+    scene.sdfunctions.push_back(
+        make_function(sphere_node(0.1f), {k * 1.0f, 20, 0}));
   for (auto linear_max : {0, 16}) {
     for (auto type : {accel_type::bvh, accel_type::none}) {
       auto accel = make_accel(scene, type, bvh_params(linear_max));
@@ -526,11 +534,13 @@ TEST_CASE("accel: grazing spheres") {
   auto scene = scene_data{};
   scene.materials.push_back({});
   scene.sdfunctions.push_back(make_function(sphere_node(0.5f), {0, 0, 0}));
-  auto  axes  = basis_fromz(normalize(vec3f{1, 2, 3}));
-  auto  world = frame3f{axes.x * 2, axes.y * 2, axes.z * 2, {1, 1, 1}};
-  scene.sdfunctions[0].local_from_world = inverse(world);  // radius 1 at (1,1,1)
+  auto axes  = basis_fromz(normalize(vec3f{1, 2, 3}));
+  auto world = frame3f{axes.x * 2, axes.y * 2, axes.z * 2, {1, 1, 1}};
+  scene.sdfunctions[0].local_from_world =
+      inverse(world);  // radius 1 at (1,1,1)
   for (auto k = 0; k < 12; k++)
-    scene.sdfunctions.push_back(make_function(sphere_node(0.1f), {k * 1.0f, -20, 0}));
+    scene.sdfunctions.push_back(
+        make_function(sphere_node(0.1f), {k * 1.0f, -20, 0}));
   for (auto type : {accel_type::bvh, accel_type::none}) {
     auto accel = make_accel(scene, type, bvh_params(0));
     auto tol   = accel.march.fallback * hit_epsilon(accel, 10);
@@ -549,7 +559,8 @@ TEST_CASE("accel: grazing spheres") {
           CHECK(isec.distance ==
                 doctest::Approx(10 - std::sqrt(1 - h * h)).epsilon(1e-5));
         auto p = ray_point(ray, isec.distance);
-        CHECK(std::abs(eval_object_distance(accel.objects[0], p)) <= isec.epsilon);
+        CHECK(std::abs(eval_object_distance(accel.objects[0], p)) <=
+              isec.epsilon);
       }
       if (offset > tol) CHECK(!isec.hit);
     }
@@ -573,9 +584,10 @@ TEST_CASE("accel: march cutoff keeps every hit before it") {
     auto fallbacks = 0, stopped = 0;
     for (auto k = 0; k < 3000; k++) {
       auto target = vec3f{rand1f(rng) - 0.5f, (rand1f(rng) - 0.5f) * 0.6f,
-                        rand1f(rng) - 0.5f} * 2.6f;
-      auto origin = sample_sphere(rand2f(rng)) * 4;
-      auto ray    = ray3f{origin, normalize(target - origin)};
+                        rand1f(rng) - 0.5f} *
+                    2.6f;
+      auto origin   = sample_sphere(rand2f(rng)) * 4;
+      auto ray      = ray3f{origin, normalize(target - origin)};
       auto distance = [&](float t) {
         return sd_torus(ray_point(ray, t), 1, 0.25f);
       };
@@ -595,7 +607,7 @@ TEST_CASE("accel: march cutoff keeps every hit before it") {
         }
       }
     }
-    CHECK(fallbacks > 0);  // the fallback was exercised
+    CHECK(fallbacks > 0);   // the fallback was exercised
     CHECK(stopped > 1000);  // and the cutoff saved work
   }
   // Rays along x over the top of the tube (y = 0.25 at x = -1 and x = 1),

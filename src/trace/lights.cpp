@@ -13,13 +13,14 @@ namespace implicit {
 // Rigid maps keep areas and distances, so local samples are world samples.
 static bool is_rigid(const frame3f& frame) {
   auto det = determinant(rotation(frame));
-  return std::abs(max_stretch(frame) - 1) < 1e-3f && std::abs(std::abs(det) - 1) < 3e-3f;
+  return std::abs(max_stretch(frame) - 1) < 1e-3f &&
+         std::abs(std::abs(det) - 1) < 3e-3f;
 }
 
 // Face areas of a box of size s: -x, +x, -y, +y, -z, +z.
 static std::vector<float> box_faces_cdf(vec3f s) {
-  auto areas = std::vector<float>{s.y * s.z, s.y * s.z, s.x * s.z, s.x * s.z,
-      s.x * s.y, s.x * s.y};
+  auto areas = std::vector<float>{
+      s.y * s.z, s.y * s.z, s.x * s.z, s.x * s.z, s.x * s.y, s.x * s.y};
   for (auto i = 1; i < 6; i++) areas[i] += areas[i - 1];
   return areas;
 }
@@ -27,7 +28,7 @@ static std::vector<float> box_faces_cdf(vec3f s) {
 // Point on face `face` of the box [0,s] at uv.
 static vec3f box_face_point(vec3f s, int face, vec2f uv) {
   auto axis = face / 2, u = (axis + 1) % 3, v = (axis + 2) % 3;
-  auto p    = vec3f{};
+  auto p      = vec3f{};
   at(p, axis) = (face % 2) ? at(s, axis) : 0;
   at(p, u)    = uv.x * at(s, u);
   at(p, v)    = uv.y * at(s, v);
@@ -57,11 +58,12 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
     if (object.material < 0 || object.material >= (int)scene.materials.size())
       continue;
     if (max(scene.materials[object.material].emission) <= 0) continue;
-    if (object.kind != object_kind::function || object.program->nodes.size() != 1)
+    if (object.kind != object_kind::function ||
+        object.program->nodes.size() != 1)
       continue;
     if (!is_rigid(object.local_from_world)) continue;
-    auto& node  = object.program->nodes[0];
-    auto  light = trace_light{};
+    auto& node   = object.program->nodes[0];
+    auto  light  = trace_light{};
     light.object = i;
     if (node.type == sdf_type::box) {
       light.shape = light_shape::box;
@@ -113,13 +115,14 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
       auto  size   = object.program->nodes[0].size;
       auto  face   = sample_discrete(light.cdf, rel);
       auto  p      = transform_point(
-          object.world_from_local, box_face_point(size, face, ruv));
+                object.world_from_local, box_face_point(size, face, ruv));
       return normalize(p - position);
     }
     case light_shape::sphere: {
       auto& object = accel.objects[light.object];
       auto  radius = object.program->nodes[0].radius;
-      auto  p = transform_point(object.world_from_local, sample_sphere(ruv) * radius);
+      auto  p =
+          transform_point(object.world_from_local, sample_sphere(ruv) * radius);
       return normalize(p - position);
     }
     case light_shape::environment: {
@@ -154,9 +157,10 @@ static float shape_light_pdf(
     if (!intersect_bbox(unclipped, box, t0, t1)) return 0;
     for (auto t : {t0, t1}) {
       // The face is the axis where the point sits closest to a side.
-      auto p = ray_point(ray, t), q = abs(p - node.size * 0.5f) - node.size * 0.5f;
-      auto axis = (q.x > q.y && q.x > q.z) ? 0 : (q.y > q.z ? 1 : 2);
-      auto n    = vec3f{};
+      auto p      = ray_point(ray, t),
+           q      = abs(p - node.size * 0.5f) - node.size * 0.5f;
+      auto axis   = (q.x > q.y && q.x > q.z) ? 0 : (q.y > q.z ? 1 : 2);
+      auto n      = vec3f{};
       at(n, axis) = 1;
       add(t, n);
     }
@@ -166,7 +170,8 @@ static float shape_light_pdf(
     auto disc = node.radius * node.radius - dot(l, l);
     if (disc < 0) return 0;
     auto h = std::sqrt(disc / a);
-    for (auto t : {-b / a - h, -b / a + h}) add(t, normalize(ray_point(ray, t)));
+    for (auto t : {-b / a - h, -b / a + h})
+      add(t, normalize(ray_point(ray, t)));
   }
   return pdf;
 }
@@ -198,8 +203,8 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
         auto j = clamp((int)(theta / pif * light.height), 0, light.height - 1);
         auto prob = sample_discrete_pdf(light.cdf, j * light.width + i);
         if (sin_theta > 0)
-          pdf += prob * light.width * light.height /
-                 (2 * pif * pif * sin_theta);
+          pdf +=
+              prob * light.width * light.height / (2 * pif * pif * sin_theta);
         break;
       }
     }

@@ -29,12 +29,13 @@ double integrate_pdf(const scene_data& scene, const accel_data& accel,
 
 // A lat-long environment with a bright spot, so importance sampling matters.
 scene_data environment_scene() {
-  auto scene   = scene_data{};
-  auto texture = texture_data{};
+  auto scene    = scene_data{};
+  auto texture  = texture_data{};
   texture.image = make_image(32, 16);
   for (auto j = 0; j < 16; j++)
     for (auto i = 0; i < 32; i++)
-      pixel(texture.image, i, j) = {0.1f + 0.05f * i, 0.2f, 0.1f + j * 0.02f, 1};
+      pixel(texture.image, i, j) = {
+          0.1f + 0.05f * i, 0.2f, 0.1f + j * 0.02f, 1};
   pixel(texture.image, 5, 3) = {50, 40, 30, 1};
   scene.textures.push_back(texture);
   auto environment         = environment_data{};
@@ -61,21 +62,24 @@ TEST_CASE("lights: environment pdf integrates to 1 and matches its samples") {
   auto accel  = make_accel(scene, accel_type::bvh, {});
   auto lights = make_lights(scene, accel);
   REQUIRE(lights.lights.size() == 1);
-  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}) == doctest::Approx(1.0).epsilon(0.01));
+  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}) ==
+        doctest::Approx(1.0).epsilon(0.01));
   // Importance-sampled estimate of the environment's integral equals the
   // quadrature of the same integral.
   auto quadrature = 0.0;
   auto n          = 600;
   for (auto j = 0; j < n; j++)
     for (auto i = 0; i < 2 * n; i++)
-      quadrature += eval_environment(scene, sample_sphere({(i + 0.5f) / (2 * n), (j + 0.5f) / n})).x;
+      quadrature += eval_environment(
+          scene, sample_sphere({(i + 0.5f) / (2 * n), (j + 0.5f) / n}))
+                        .x;
   quadrature *= 4 * pif / (2.0 * n * n);
   auto rng      = make_rng(5);
   auto estimate = 0.0;
   auto samples  = 200000;
   for (auto k = 0; k < samples; k++) {
-    auto direction = sample_lights(scene, accel, lights, {0, 0, 0}, rand1f(rng),
-        rand1f(rng), rand2f(rng));
+    auto direction = sample_lights(
+        scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
     auto pdf = sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction);
     INFO(direction.x, " ", direction.y, " ", direction.z, " k ", k);
     REQUIRE(pdf > 0);
@@ -86,8 +90,8 @@ TEST_CASE("lights: environment pdf integrates to 1 and matches its samples") {
 }
 
 TEST_CASE("lights: box and sphere light pdfs integrate to 1 from outside") {
-  auto scene    = scene_data{};
-  auto material = material_data{};
+  auto scene        = scene_data{};
+  auto material     = material_data{};
   material.emission = {5, 5, 5};
   scene.materials.push_back(material);
   auto box = sdf_node{};
@@ -108,15 +112,16 @@ TEST_CASE("lights: box and sphere light pdfs integrate to 1 from outside") {
   // Samples point at the lights and have a positive pdf.
   auto rng = make_rng(9);
   for (auto k = 0; k < 1000; k++) {
-    auto direction = sample_lights(scene, accel, lights, {0, 0, 0}, rand1f(rng),
-        rand1f(rng), rand2f(rng));
+    auto direction = sample_lights(
+        scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
     CHECK(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction) > 0);
   }
 }
 
-TEST_CASE("lights: non-rigid or unsupported emitters are left to BSDF sampling") {
-  auto scene    = scene_data{};
-  auto material = material_data{};
+TEST_CASE(
+    "lights: non-rigid or unsupported emitters are left to BSDF sampling") {
+  auto scene        = scene_data{};
+  auto material     = material_data{};
   material.emission = {5, 5, 5};
   scene.materials.push_back(material);
   auto torus    = sdf_node{};
@@ -124,10 +129,10 @@ TEST_CASE("lights: non-rigid or unsupported emitters are left to BSDF sampling")
   torus.radius  = 1;
   torus.radius2 = 0.2f;
   scene.sdfunctions.push_back(emitter(torus, {0, 2, 0}));
-  auto sphere   = sdf_node{};
-  sphere.type   = sdf_type::sphere;
-  sphere.radius = 0.3f;
-  auto squashed = emitter(sphere, {1, 1, -1});
+  auto sphere                 = sdf_node{};
+  sphere.type                 = sdf_type::sphere;
+  sphere.radius               = 0.3f;
+  auto squashed               = emitter(sphere, {1, 1, -1});
   squashed.local_from_world.y = {0, 2, 0};
   scene.sdfunctions.push_back(squashed);
   auto accel  = make_accel(scene, accel_type::bvh, {});

@@ -121,16 +121,13 @@ inline bool is_delta(const material_point& material) {
   switch (material.type) {
     case material_type::matte:
     case material_type::glossy:
-    case material_type::gltfpbr:
-      return false;
+    case material_type::gltfpbr: return false;
     case material_type::reflective:
     case material_type::transparent:
     case material_type::refractive:
     // Not in Yocto 4.2, which leaves smooth subsurface black.
-    case material_type::subsurface:
-      return material.roughness == 0;
-    case material_type::volumetric:
-      return true;
+    case material_type::subsurface: return material.roughness == 0;
+    case material_type::volumetric: return true;
   }
   return false;
 }
@@ -753,8 +750,7 @@ inline vec3f eval_bsdfcos(const material_point& material, vec3f normal,
     case material_type::gltfpbr:
       return eval_gltfpbr(
           m.color, m.ior, m.roughness, m.metallic, normal, outgoing, incoming);
-    case material_type::volumetric:
-      return {0, 0, 0};
+    case material_type::volumetric: return {0, 0, 0};
   }
   return {0, 0, 0};
 }
@@ -765,8 +761,7 @@ inline vec3f sample_bsdfcos(const material_point& material, vec3f normal,
   if (material.roughness == 0) return {0, 0, 0};
   auto& m = material;
   switch (m.type) {
-    case material_type::matte:
-      return sample_matte(normal, outgoing, rn);
+    case material_type::matte: return sample_matte(normal, outgoing, rn);
     case material_type::glossy:
       return sample_glossy(m.ior, m.roughness, normal, outgoing, rnl, rn);
     case material_type::reflective:
@@ -779,8 +774,7 @@ inline vec3f sample_bsdfcos(const material_point& material, vec3f normal,
     case material_type::gltfpbr:
       return sample_gltfpbr(
           m.color, m.ior, m.roughness, m.metallic, normal, outgoing, rnl, rn);
-    case material_type::volumetric:
-      return {0, 0, 0};
+    case material_type::volumetric: return {0, 0, 0};
   }
   return {0, 0, 0};
 }
@@ -807,8 +801,7 @@ inline float sample_bsdfcos_pdf(const material_point& material, vec3f normal,
     case material_type::gltfpbr:
       return sample_gltfpbr_pdf(
           m.color, m.ior, m.roughness, m.metallic, normal, outgoing, incoming);
-    case material_type::volumetric:
-      return 0;
+    case material_type::volumetric: return 0;
   }
   return 0;
 }
@@ -821,8 +814,7 @@ inline vec3f eval_delta(const material_point& material, vec3f normal,
   switch (m.type) {
     case material_type::matte:
     case material_type::glossy:
-    case material_type::gltfpbr:
-      return {0, 0, 0};
+    case material_type::gltfpbr: return {0, 0, 0};
     case material_type::reflective:
       return eval_reflective_delta(m.color, normal, outgoing, incoming);
     case material_type::transparent:
@@ -844,8 +836,7 @@ inline vec3f sample_delta(
   switch (m.type) {
     case material_type::matte:
     case material_type::glossy:
-    case material_type::gltfpbr:
-      return {0, 0, 0};
+    case material_type::gltfpbr: return {0, 0, 0};
     case material_type::reflective:
       return sample_reflective_delta(normal, outgoing);
     case material_type::transparent:
@@ -853,8 +844,7 @@ inline vec3f sample_delta(
     case material_type::refractive:
     case material_type::subsurface:
       return sample_refractive_delta(m.ior, normal, outgoing, rnl);
-    case material_type::volumetric:
-      return sample_passthrough(outgoing);
+    case material_type::volumetric: return sample_passthrough(outgoing);
   }
   return {0, 0, 0};
 }
@@ -867,8 +857,7 @@ inline float sample_delta_pdf(const material_point& material, vec3f normal,
   switch (m.type) {
     case material_type::matte:
     case material_type::glossy:
-    case material_type::gltfpbr:
-      return 0;
+    case material_type::gltfpbr: return 0;
     case material_type::reflective:
       return sample_reflective_delta_pdf(normal, outgoing, incoming);
     case material_type::transparent:

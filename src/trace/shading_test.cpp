@@ -859,16 +859,11 @@ TEST_CASE("shading: no NaN or Inf for grazing and backfacing directions") {
     auto tangent = normalize(cross(normal, sample_sphere(rand2f(rng))));
     auto side    = rand1f(rng) < 0.5f ? -1.0f : 1.0f;
     switch (kind) {
-      case 0:
-        return sample_sphere(rand2f(rng));
-      case 1:
-        return tangent;
-      case 2:
-        return normalize(tangent + normal * (side * 1e-7f));
-      case 3:
-        return normal * side;
-      default:
-        return normalize(tangent + normal * (side * rand1f(rng)));
+      case 0: return sample_sphere(rand2f(rng));
+      case 1: return tangent;
+      case 2: return normalize(tangent + normal * (side * 1e-7f));
+      case 3: return normal * side;
+      default: return normalize(tangent + normal * (side * rand1f(rng)));
     }
   };
   auto types =

@@ -55,10 +55,10 @@ inline march_result sphere_trace(const Distance& distance, float t0, float t1,
   auto step         = 0.0f;  // signed length of the last step
   auto prev_radius  = 0.0f;  // unbounding radius at the last point
   // Closest approach so far, as radius and threshold (no division per step).
-  auto best_radius  = flt_max;
-  auto best_t       = t0;
-  auto best_eps     = hit_min;
-  auto side         = 0.0f;
+  auto best_radius = flt_max;
+  auto best_t      = t0;
+  auto best_eps    = hit_min;
+  auto side        = 0.0f;
   for (auto i = 0; i < params.max_iterations; i++) {
     // Past the end: a relaxed step may have jumped over a surface near the
     // end, so retry with a plain step before giving up.

@@ -28,7 +28,8 @@ struct surface_point {
 // surfaces have no uv): three planar projections blended by the normal's
 // components raised to a power, so that each face takes its dominant axis.
 // One texture repeat per unit of object space.
-static vec4f eval_triplanar(const scene_data& scene, int texture, vec3f p, vec3f n) {
+static vec4f eval_triplanar(
+    const scene_data& scene, int texture, vec3f p, vec3f n) {
   if (texture < 0 || texture >= (int)scene.textures.size()) return {1, 1, 1, 1};
   auto w = abs(n);
   w      = w * w * w * w;
@@ -53,8 +54,8 @@ static material_point eval_material(const scene_data& scene,
   auto scale = object.kind == object_kind::grid
                    ? scene.vol_instances[object.index].scale
                    : 1.0f;
-  auto p = transform_point(object.local_from_world, position) * scale;
-  auto n = normalize(transform_vector(object.local_from_world, normal));
+  auto p     = transform_point(object.local_from_world, position) * scale;
+  auto n     = normalize(transform_vector(object.local_from_world, normal));
   return make_material_point(material,
       eval_triplanar(scene, material.color_tex, p, n),
       eval_triplanar(scene, material.emission_tex, p, n),
@@ -68,7 +69,8 @@ static surface_point eval_surface(const scene_data& scene,
   auto& object   = accel.objects[isec.object];
   point.position = ray_point(ray, isec.distance);
   point.epsilon  = isec.epsilon;
-  point.normal   = eval_object_normal(object, point.position, isec.epsilon * 0.5f);
+  point.normal =
+      eval_object_normal(object, point.position, isec.epsilon * 0.5f);
   point.material = eval_material(scene, object, point.position, point.normal);
   return point;
 }
@@ -80,7 +82,8 @@ static ray3f spawn_ray(
     const accel_data& accel, const surface_point& point, vec3f direction) {
   auto offset = 2 * point.epsilon + 2 * accel.hit_min;
   auto side   = dot(point.normal, direction) >= 0 ? 1.0f : -1.0f;
-  return {point.position + point.normal * (offset * side), direction, 0, flt_max};
+  return {
+      point.position + point.normal * (offset * side), direction, 0, flt_max};
 }
 
 // -----------------------------------------------------------------------------
@@ -106,8 +109,9 @@ static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
   for (auto crossing = 0; crossing < 16; crossing++) {
     auto isec = intersect_scene(accel, ray);
     evaluations += isec.evaluations;
-    if (!isec.hit) return radiance + transmittance * eval_environment(scene, ray.d);
-    auto point    = eval_surface(scene, accel, ray, isec);
+    if (!isec.hit)
+      return radiance + transmittance * eval_environment(scene, ray.d);
+    auto  point    = eval_surface(scene, accel, ray, isec);
     auto& material = point.material;
     radiance += transmittance * material.opacity *
                 eval_emission(material, point.normal, -ray.d);
@@ -120,7 +124,7 @@ static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
       for (auto k = 0; k < inside_count; k++)
         if (inside[k] == isec.object) found = k;
       if (found < 0 && inside_count < (int)inside.size()) {
-        inside[inside_count] = isec.object;
+        inside[inside_count]  = isec.object;
         entry[inside_count++] = point.position;
       } else if (found >= 0) {
         transmittance *= eval_transmittance(
@@ -160,20 +164,21 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
   auto volumes       = volume_stack{};
   // Two-sample MIS: the BSDF pdf of the direction that led here, or 0 when
   // emission found along it needs no weight (camera, delta, one-sample).
-  auto bsdf_pdf      = 0.0f;
-  auto from          = ray.o;
+  auto bsdf_pdf = 0.0f;
+  auto from     = ray.o;
   // Weight for emission reached by a BSDF-sampled direction.
   auto emission_weight = [&](vec3f direction) {
     if (bsdf_pdf <= 0) return 1.0f;
-    return power_heuristic(bsdf_pdf,
-        sample_lights_pdf(scene, accel, lights, from, direction));
+    return power_heuristic(
+        bsdf_pdf, sample_lights_pdf(scene, accel, lights, from, direction));
   };
   for (auto bounce = 0; bounce < params.bounces; bounce++) {
     auto isec = intersect_scene(accel, ray);
     evaluations += isec.evaluations;
     if (!isec.hit) {
       if (bounce > 0 || !params.envhidden)
-        radiance += weight * eval_environment(scene, ray.d) * emission_weight(ray.d);
+        radiance +=
+            weight * eval_environment(scene, ray.d) * emission_weight(ray.d);
       break;
     }
 
@@ -182,8 +187,9 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     if (volumes.size > 0) {
       auto& medium   = volumes.items[volumes.size - 1];
       auto  distance = sample_transmittance(
-          medium.density, isec.distance, rand1f(rng), rand1f(rng));
-      auto pdf = sample_transmittance_pdf(medium.density, distance, isec.distance);
+           medium.density, isec.distance, rand1f(rng), rand1f(rng));
+      auto pdf =
+          sample_transmittance_pdf(medium.density, distance, isec.distance);
       if (pdf <= 0) break;
       weight *= eval_transmittance(medium.density, distance) / pdf;
       in_volume     = distance < isec.distance;
@@ -197,7 +203,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       auto  outgoing = -ray.d;
       auto  incoming = vec3f{0, 0, 0};
       if (!use_lights || rand1f(rng) < 0.5f) {
-        incoming = sample_scattering(medium, outgoing, rand1f(rng), rand2f(rng));
+        incoming =
+            sample_scattering(medium, outgoing, rand1f(rng), rand2f(rng));
       } else {
         incoming = sample_lights(scene, accel, lights, position, rand1f(rng),
             rand1f(rng), rand2f(rng));
@@ -205,8 +212,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       if (incoming == vec3f{0, 0, 0}) break;
       auto pdf = sample_scattering_pdf(medium, outgoing, incoming);
       if (use_lights)
-        pdf = 0.5f * pdf +
-              0.5f * sample_lights_pdf(scene, accel, lights, position, incoming);
+        pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(
+                                      scene, accel, lights, position, incoming);
       if (pdf <= 0) break;
       weight *= eval_scattering(medium, outgoing, incoming) / pdf;
       bsdf_pdf = 0;
@@ -242,21 +249,26 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
             rand1f(rng), rand1f(rng), rand2f(rng));
         if (light != vec3f{0, 0, 0}) {
           auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
-          auto lpdf = sample_lights_pdf(scene, accel, lights, point.position, light);
+          auto lpdf =
+              sample_lights_pdf(scene, accel, lights, point.position, light);
           if (bsdfcos != vec3f{0, 0, 0} && lpdf > 0) {
-            auto bpdf = sample_bsdfcos_pdf(material, point.normal, outgoing, light);
-            auto le   = eval_unscattered(
+            auto bpdf =
+                sample_bsdfcos_pdf(material, point.normal, outgoing, light);
+            auto le = eval_unscattered(
                 scene, accel, spawn_ray(accel, point, light), evaluations);
-            radiance += weight * bsdfcos * le * (power_heuristic(lpdf, bpdf) / lpdf);
+            radiance +=
+                weight * bsdfcos * le * (power_heuristic(lpdf, bpdf) / lpdf);
           }
         }
         // BSDF sample, which also continues the path.
         incoming = sample_bsdfcos(
             material, point.normal, outgoing, rand1f(rng), rand2f(rng));
         if (incoming == vec3f{0, 0, 0}) break;
-        auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
+        auto pdf =
+            sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
         if (pdf <= 0) break;
-        weight *= eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
+        weight *=
+            eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
         bsdf_pdf = pdf;
         from     = point.position;
       } else {
@@ -268,12 +280,14 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
               rand1f(rng), rand1f(rng), rand2f(rng));
         }
         if (incoming == vec3f{0, 0, 0}) break;
-        auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
+        auto pdf =
+            sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
         if (use_lights)
           pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(scene, accel, lights,
                                         point.position, incoming);
         if (pdf <= 0) break;
-        weight *= eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
+        weight *=
+            eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
         bsdf_pdf = 0;
       }
 
@@ -304,7 +318,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
 // Colour ramp for the steps heat map: blue (few) -> red (many), log scale.
 static vec3f heat_color(float value) {
   auto v = clamp(value, 0.0f, 1.0f);
-  return {clamp(2 * v - 0.5f, 0.0f, 1.0f), clamp(1 - std::abs(2 * v - 1), 0.0f, 1.0f),
+  return {clamp(2 * v - 0.5f, 0.0f, 1.0f),
+      clamp(1 - std::abs(2 * v - 1), 0.0f, 1.0f),
       clamp(1.5f - 2 * v, 0.0f, 1.0f)};
 }
 
@@ -328,7 +343,8 @@ static vec4f shade_debug(const scene_data& scene, const accel_data& accel,
     case shader_type::position: color = point.position; break;
     case shader_type::color: color = point.material.color; break;
     case shader_type::frontfacing:
-      color = dot(point.normal, outgoing) >= 0 ? vec3f{0, 1, 0} : vec3f{1, 0, 0};
+      color =
+          dot(point.normal, outgoing) >= 0 ? vec3f{0, 1, 0} : vec3f{1, 0, 0};
       break;
     case shader_type::material: {
       // A distinct hue per material index.
@@ -338,7 +354,7 @@ static vec4f shade_debug(const scene_data& scene, const accel_data& accel,
     }
     case shader_type::eyelight: {
       auto& material = point.material;
-      color = eval_emission(material, point.normal, outgoing);
+      color          = eval_emission(material, point.normal, outgoing);
       if (!is_delta(material))
         color += pif * eval_bsdfcos(material, point.normal, outgoing, outgoing);
       break;
@@ -349,7 +365,9 @@ static vec4f shade_debug(const scene_data& scene, const accel_data& accel,
   return {color.x, color.y, color.z, 1};
 }
 
-bool is_lit_shader(shader_type shader) { return shader == shader_type::implicit; }
+bool is_lit_shader(shader_type shader) {
+  return shader == shader_type::implicit;
+}
 
 // -----------------------------------------------------------------------------
 // RENDERING
@@ -384,14 +402,15 @@ vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
   auto  puv    = rand2f(rng);
   if (params.tentfilter)
     puv = vec2f{tent_offset(puv.x), tent_offset(puv.y)} + vec2f{0.5f, 0.5f};
-  auto uv  = vec2f{(i + puv.x) / width, (j + puv.y) / height};
+  auto uv = vec2f{(i + puv.x) / width, (j + puv.y) / height};
   // The lens sample is drawn only for cameras that use it (pinholes skip
   // the warp, as it costs a sizeable part of a camera ray).
   auto lens = camera.aperture > 0 ? sample_disk(rand2f(rng)) : vec2f{0, 0};
   auto ray  = eval_camera(camera, uv, lens);
-  auto color = params.shader == shader_type::implicit
-                   ? shade_implicit(scene, accel, lights, ray, params, rng, evaluations)
-                   : shade_debug(scene, accel, ray, params, evaluations);
+  auto color =
+      params.shader == shader_type::implicit
+          ? shade_implicit(scene, accel, lights, ray, params, rng, evaluations)
+          : shade_debug(scene, accel, ray, params, evaluations);
   auto rgb = xyz(color);
   if (!isfinite(rgb)) rgb = {0, 0, 0};
   if (max(rgb) > params.clamp) rgb = rgb * (params.clamp / max(rgb));

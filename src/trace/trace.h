@@ -32,8 +32,8 @@ enum class shader_type {
   // clang-format on
 };
 inline const std::vector<std::string> shader_type_names = {"implicit",
-    "implicit_normal", "eyelight", "normal", "position", "color",
-    "frontfacing", "material", "steps"};
+    "implicit_normal", "eyelight", "normal", "position", "color", "frontfacing",
+    "material", "steps"};
 
 // How `implicit` combines light and BSDF sampling: the seed's one-sample
 // mixture (balance heuristic), or two samples with the power heuristic.
@@ -41,20 +41,20 @@ enum class mis_type { one_sample, two_sample };
 inline const std::vector<std::string> mis_type_names = {"one", "two"};
 
 struct trace_params {
-  int         camera       = 0;
-  int         resolution   = 720;
-  shader_type shader       = shader_type::implicit;
-  int         samples      = 512;
-  int         bounces      = 4;
-  float       clamp        = 10;
-  uint64_t    seed         = 961748941;
-  bool        envhidden    = false;
-  bool        implicit_mis = true;  // false: --noimplicitmis
-  mis_type    mis          = mis_type::two_sample;  // less noise at equal time
-  bool        tentfilter   = false;
-  accel_type  accel        = accel_type::bvh;
-  march_params march       = {};
-  int         pratio       = 8;  // viewer preview downscale
+  int          camera       = 0;
+  int          resolution   = 720;
+  shader_type  shader       = shader_type::implicit;
+  int          samples      = 512;
+  int          bounces      = 4;
+  float        clamp        = 10;
+  uint64_t     seed         = 961748941;
+  bool         envhidden    = false;
+  bool         implicit_mis = true;                  // false: --noimplicitmis
+  mis_type     mis          = mis_type::two_sample;  // less noise at equal time
+  bool         tentfilter   = false;
+  accel_type   accel        = accel_type::bvh;
+  march_params march        = {};
+  int          pratio       = 8;  // viewer preview downscale
 };
 
 // -----------------------------------------------------------------------------
@@ -93,7 +93,8 @@ inline bool trace_samples_until(trace_state& state, const scene_data& scene,
     const accel_data& accel, const lights_data& lights,
     const trace_params& params, const Cancelled& cancelled) {
   auto stopped = std::atomic<bool>{false};
-  auto range   = tbb::blocked_range2d<int>(0, state.height, 16, 0, state.width, 16);
+  auto range =
+      tbb::blocked_range2d<int>(0, state.height, 16, 0, state.width, 16);
   tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& tile) {
     if (stopped.load(std::memory_order_relaxed) || cancelled()) {
       stopped.store(true, std::memory_order_relaxed);

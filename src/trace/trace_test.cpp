@@ -8,7 +8,8 @@
 
 using namespace implicit;
 
-static sdf_function_data make_function(sdf_node node, vec3f origin, int material) {
+static sdf_function_data make_function(
+    sdf_node node, vec3f origin, int material) {
   auto function             = sdf_function_data{};
   function.program          = make_primitive_program(node);
   function.local_from_world = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -origin};
@@ -38,8 +39,8 @@ static vec3f covered_mean(const image_data& image, int& count) {
 
 // White matte sphere in a uniform white environment.
 static scene_data furnace_scene() {
-  auto scene    = scene_data{};
-  auto material = material_data{};
+  auto scene     = scene_data{};
+  auto material  = material_data{};
   material.color = {1, 1, 1};
   scene.materials.push_back(material);
   auto sphere   = sdf_node{};
@@ -54,17 +55,17 @@ static scene_data furnace_scene() {
 }
 
 TEST_CASE("trace: furnace, white matte sphere converges to 1") {
-  auto scene         = furnace_scene();
-  auto params        = trace_params{};
-  params.resolution  = 24;
-  params.samples     = 64;
-  params.bounces     = 8;
-  params.envhidden   = true;
+  auto scene        = furnace_scene();
+  auto params       = trace_params{};
+  params.resolution = 24;
+  params.samples    = 64;
+  params.bounces    = 8;
+  params.envhidden  = true;
   for (auto mis : {true, false}) {
     params.implicit_mis = mis;
-    auto image = trace_image(scene, params);
-    auto count = 0;
-    auto mean  = covered_mean(image, count);
+    auto image          = trace_image(scene, params);
+    auto count          = 0;
+    auto mean           = covered_mean(image, count);
     CHECK(count > 100);
     CHECK(mean.x == doctest::Approx(1.0f).epsilon(0.02));
     CHECK(mean.z == doctest::Approx(1.0f).epsilon(0.02));
@@ -74,15 +75,15 @@ TEST_CASE("trace: furnace, white matte sphere converges to 1") {
 
 // A matte floor lit by a small emissive box overhead, no environment.
 static scene_data small_light_scene() {
-  auto scene  = scene_data{};
-  auto floor  = material_data{};
-  floor.color = {0.8f, 0.8f, 0.8f};
-  auto light  = material_data{};
-  light.emission = {20, 20, 20};
+  auto scene      = scene_data{};
+  auto floor      = material_data{};
+  floor.color     = {0.8f, 0.8f, 0.8f};
+  auto light      = material_data{};
+  light.emission  = {20, 20, 20};
   scene.materials = {floor, light};
-  auto box  = sdf_node{};
-  box.type  = sdf_type::box;
-  box.size  = {4, 1e-5f, 4};
+  auto box        = sdf_node{};
+  box.type        = sdf_type::box;
+  box.size        = {4, 1e-5f, 4};
   scene.sdfunctions.push_back(make_function(box, {-2, 0, -2}, 0));
   box.size = {0.5f, 1e-5f, 0.5f};
   scene.sdfunctions.push_back(make_function(box, {-0.25f, 1, -0.25f}, 1));
@@ -95,17 +96,17 @@ static scene_data small_light_scene() {
 }
 
 TEST_CASE("trace: MIS on and off converge to the same mean") {
-  auto scene        = small_light_scene();
-  auto params       = trace_params{};
-  params.resolution = 32;
-  params.samples    = 128;
-  params.bounces    = 3;
-  params.clamp      = 1e6f;  // no clamping bias
+  auto scene          = small_light_scene();
+  auto params         = trace_params{};
+  params.resolution   = 32;
+  params.samples      = 128;
+  params.bounces      = 3;
+  params.clamp        = 1e6f;  // no clamping bias
   params.implicit_mis = true;
-  auto count = 0;
-  auto with  = covered_mean(trace_image(scene, params), count);
+  auto count          = 0;
+  auto with           = covered_mean(trace_image(scene, params), count);
   params.implicit_mis = false;
-  auto without = covered_mean(trace_image(scene, params), count);
+  auto without        = covered_mean(trace_image(scene, params), count);
   CHECK(with.x > 0.05f);
   CHECK(without.x == doctest::Approx(with.x).epsilon(0.05));
 }
@@ -115,16 +116,18 @@ TEST_CASE("trace: same image whatever the thread count") {
   auto params       = trace_params{};
   params.resolution = 24;
   params.samples    = 4;
-  auto one = image_data{};
+  auto one          = image_data{};
   {
-    auto control = tbb::global_control(tbb::global_control::max_allowed_parallelism, 1);
+    auto control =
+        tbb::global_control(tbb::global_control::max_allowed_parallelism, 1);
     one = trace_image(scene, params);
   }
   auto two = trace_image(scene, params);
   REQUIRE(one.pixels.size() == two.pixels.size());
   auto same = true;
   for (size_t i = 0; i < one.pixels.size(); i++)
-    same = same && one.pixels[i].x == two.pixels[i].x && one.pixels[i].w == two.pixels[i].w;
+    same = same && one.pixels[i].x == two.pixels[i].x &&
+           one.pixels[i].w == two.pixels[i].w;
   CHECK(same);
 }
 
@@ -134,7 +137,7 @@ TEST_CASE("trace: scenes without lights or objects render without NaN") {
   auto params       = trace_params{};
   params.resolution = 16;
   params.samples    = 2;
-  auto image = trace_image(scene, params);
+  auto image        = trace_image(scene, params);
   for (auto& p : image.pixels) CHECK(isfinite(xyz(p)));
   // No objects at all.
   scene.sdfunctions.clear();
@@ -148,7 +151,7 @@ TEST_CASE("trace: implicit_normal colours and alpha") {
   params.resolution = 33;
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
-  auto image  = trace_image(scene, params);
+  auto image        = trace_image(scene, params);
   // Centre pixel sees the sphere's +z pole: colour (0.5, 0.5, 1).
   auto centre = pixel(image, 16, 16);
   CHECK(centre.x == doctest::Approx(0.5f).epsilon(0.02));
@@ -173,7 +176,7 @@ TEST_CASE("trace: furnace per material stays at or below 1") {
       {material_type::refractive, 0, 0, 0.97f, 1.02f},
   };
   for (auto& c : cases) {
-    auto scene = furnace_scene();
+    auto scene                   = furnace_scene();
     scene.materials[0].type      = c.type;
     scene.materials[0].roughness = c.roughness;
     scene.materials[0].metallic  = c.metallic;
@@ -184,9 +187,9 @@ TEST_CASE("trace: furnace per material stays at or below 1") {
       params.bounces    = 16;
       params.envhidden  = true;
       params.mis        = mis;
-      auto image = trace_image(scene, params);
-      auto count = 0;
-      auto mean  = covered_mean(image, count);
+      auto image        = trace_image(scene, params);
+      auto count        = 0;
+      auto mean         = covered_mean(image, count);
       INFO("material ", material_type_names[(int)c.type], " mis ", (int)mis);
       CHECK(mean.y >= c.lo);
       CHECK(mean.y <= c.hi);
@@ -194,19 +197,20 @@ TEST_CASE("trace: furnace per material stays at or below 1") {
   }
 }
 
-TEST_CASE("trace: one-sample, two-sample and no MIS converge to the same mean") {
-  auto scene        = small_light_scene();
+TEST_CASE(
+    "trace: one-sample, two-sample and no MIS converge to the same mean") {
+  auto scene                   = small_light_scene();
   scene.materials[0].type      = material_type::glossy;
   scene.materials[0].roughness = 0.3f;
-  auto params       = trace_params{};
-  params.resolution = 32;
-  params.samples    = 256;
-  params.bounces    = 3;
-  params.clamp      = 1e6f;
-  auto means = std::vector<float>{};
+  auto params                  = trace_params{};
+  params.resolution            = 32;
+  params.samples               = 256;
+  params.bounces               = 3;
+  params.clamp                 = 1e6f;
+  auto means                   = std::vector<float>{};
   for (auto mode : {0, 1, 2}) {
     params.implicit_mis = mode != 2;
-    params.mis          = mode == 1 ? mis_type::two_sample : mis_type::one_sample;
+    params.mis = mode == 1 ? mis_type::two_sample : mis_type::one_sample;
     auto count = 0;
     means.push_back(covered_mean(trace_image(scene, params), count).x);
   }
@@ -216,19 +220,19 @@ TEST_CASE("trace: one-sample, two-sample and no MIS converge to the same mean") 
 }
 
 TEST_CASE("trace: absorbing glass is darker than clear glass") {
-  auto scene = furnace_scene();
+  auto scene                 = furnace_scene();
   scene.materials[0].type    = material_type::refractive;
   scene.materials[0].color   = {1, 1, 1};
-  auto params       = trace_params{};
-  params.resolution = 24;
-  params.samples    = 32;
-  params.bounces    = 16;
-  params.envhidden  = true;
-  auto count = 0;
-  auto clear = covered_mean(trace_image(scene, params), count);
+  auto params                = trace_params{};
+  params.resolution          = 24;
+  params.samples             = 32;
+  params.bounces             = 16;
+  params.envhidden           = true;
+  auto count                 = 0;
+  auto clear                 = covered_mean(trace_image(scene, params), count);
   scene.materials[0].color   = {0.2f, 0.5f, 1.0f};
   scene.materials[0].trdepth = 0.5f;
-  auto tinted = covered_mean(trace_image(scene, params), count);
+  auto tinted                = covered_mean(trace_image(scene, params), count);
   CHECK(tinted.x < 0.5f * clear.x);
   CHECK(tinted.z > 0.95f * clear.z);  // no absorption in blue
   // A scattering medium with white albedo conserves energy.
@@ -236,18 +240,18 @@ TEST_CASE("trace: absorbing glass is darker than clear glass") {
   scene.materials[0].color      = {0.5f, 0.5f, 0.5f};
   scene.materials[0].scattering = {1, 1, 1};
   scene.materials[0].trdepth    = 0.2f;
-  params.bounces = 64;
+  params.bounces                = 64;
   auto fog = covered_mean(trace_image(scene, params), count);
   CHECK(fog.y <= 1.02f);
 }
 
 TEST_CASE("trace: debug shaders") {
-  auto scene        = furnace_scene();
+  auto scene               = furnace_scene();
   scene.materials[0].color = {0.25f, 0.5f, 0.75f};
-  auto params       = trace_params{};
-  params.resolution = 33;
-  params.samples    = 1;
-  auto centre = [&](shader_type shader) {
+  auto params              = trace_params{};
+  params.resolution        = 33;
+  params.samples           = 1;
+  auto centre              = [&](shader_type shader) {
     params.shader = shader;
     return pixel(trace_image(scene, params), 16, 16);
   };
