@@ -242,7 +242,10 @@ static vec3f smooth_gradient(const grid_data& grid, vec3i cell, vec3f w) {
 // A flat field has no normal; any fixed unit vector keeps shading finite.
 static constexpr vec3f fallback_normal = {0, 0, 1};
 
-vec3f eval_grid_gradient(const grid_data& grid, vec3f p) {
+// Normal at p: the box face where the box closes the surface, else the
+// gradient of the interpolant (`smooth`: of the node gradients), falling
+// back to the other one where the first vanishes.
+static vec3f eval_grid_normal(const grid_data& grid, vec3f p, bool smooth) {
   if (!is_grid_usable(grid) || !isfinite(p)) return fallback_normal;
   auto q     = min(max(p, 0.0f), grid_bounds(grid).max);
   auto cell  = vec3i{};
@@ -252,26 +255,20 @@ vec3f eval_grid_gradient(const grid_data& grid, vec3f p) {
   voxel_corners(grid, cell, v);
   auto normal = vec3f{};
   if (box_face_normal(grid, p, trilinear(v, local), normal)) return normal;
-  auto g = trilinear_gradient(v, local);
-  if (length_squared(g) == 0) g = smooth_gradient(grid, cell, local);
+  auto exact = [&] { return trilinear_gradient(v, local); };
+  auto blend = [&] { return smooth_gradient(grid, cell, local); };
+  auto g     = smooth ? blend() : exact();
+  if (length_squared(g) == 0) g = smooth ? exact() : blend();
   if (length_squared(g) == 0) return fallback_normal;
   return normalize(g);
 }
 
+vec3f eval_grid_gradient(const grid_data& grid, vec3f p) {
+  return eval_grid_normal(grid, p, false);
+}
+
 vec3f eval_grid_gradient_smooth(const grid_data& grid, vec3f p) {
-  if (!is_grid_usable(grid) || !isfinite(p)) return fallback_normal;
-  auto q     = min(max(p, 0.0f), grid_bounds(grid).max);
-  auto cell  = vec3i{};
-  auto local = vec3f{};
-  locate_voxel(grid, q, cell, local);
-  float v[8];
-  voxel_corners(grid, cell, v);
-  auto normal = vec3f{};
-  if (box_face_normal(grid, p, trilinear(v, local), normal)) return normal;
-  auto g = smooth_gradient(grid, cell, local);
-  if (length_squared(g) == 0) g = trilinear_gradient(v, local);
-  if (length_squared(g) == 0) return fallback_normal;
-  return normalize(g);
+  return eval_grid_normal(grid, p, true);
 }
 
 // -----------------------------------------------------------------------------
