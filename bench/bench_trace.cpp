@@ -35,9 +35,8 @@
 #include <string>
 #include <vector>
 
-#include "math/random.h"
-#include "math/sampling.h"
 #include "scene/scene_io.h"
+#include "scene/scene_random.h"
 #include "trace/trace.h"
 
 using namespace implicit;
@@ -46,20 +45,11 @@ using namespace implicit;
 // GENERATED SCENES
 // -----------------------------------------------------------------------------
 
-// A uniformly random rotation: a random axis frame turned about its z.
-static mat3f random_rotation(rng_state& rng) {
-  auto frame = basis_fromz(sample_sphere(rand2f(rng)));
-  auto angle = 2 * pif * rand1f(rng);
-  auto c = std::cos(angle), s = std::sin(angle);
-  return {frame.x * c + frame.y * s, frame.y * c - frame.x * s, frame.z};
-}
-
 // `count` random primitives in the cube [-5,5]^3, each about a third of the
 // spacing between them (so every count fills the cube alike), over a floor
 // plane, under a square area light, in a sky.
 static scene_data make_random_scene(int count, uint64_t seed) {
   auto scene = scene_data{};
-  auto rng   = make_rng(seed);
   for (auto color : {vec3f{0.7f, 0.7f, 0.7f}, vec3f{0.8f, 0.3f, 0.2f},
            vec3f{0.2f, 0.5f, 0.8f}, vec3f{0.9f, 0.8f, 0.3f}}) {
     auto material  = material_data{};
@@ -76,47 +66,7 @@ static scene_data make_random_scene(int count, uint64_t seed) {
 
   auto spacing = 10 / std::cbrt((float)count);
   auto size    = 0.35f * spacing * (count == 1 ? 2.0f : 1.0f);
-  for (auto i = 0; i < count; i++) {
-    auto node = sdf_node{};
-    auto half = vec3f{0, 0, 0};  // local centre (boxes have their corner at 0)
-    switch (rand1i(rng, 4)) {
-      case 0:
-        node.type = sdf_type::box;
-        node.size = {1, 1, 1};
-        half      = {0.5f, 0.5f, 0.5f};
-        break;
-      case 1:
-        node.type   = sdf_type::sphere;
-        node.radius = 0.5f;
-        break;
-      case 2:
-        node.type    = sdf_type::torus;
-        node.radius  = 0.38f;
-        node.radius2 = 0.12f;
-        break;
-      default:
-        node.type    = sdf_type::capped_cone;
-        node.height  = 0.5f;
-        node.radius  = 0.5f;
-        node.radius2 = 0.4f * rand1f(rng);
-        break;
-    }
-    auto rotation = random_rotation(rng);
-    auto scale    = vec3f{0.6f + 0.8f * rand1f(rng), 0.6f + 0.8f * rand1f(rng),
-                     0.6f + 0.8f * rand1f(rng)} *
-                 size;
-    auto position =
-        (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * (10 - size);
-    auto world_from_local = frame3f{rotation.x * scale.x, rotation.y * scale.y,
-        rotation.z * scale.z, {0, 0, 0}};
-    world_from_local.o    = position - transform_vector(world_from_local, half);
-    auto function         = sdf_function_data{};
-    function.name         = "object" + std::to_string(i);
-    function.program      = make_primitive_program(node);
-    function.local_from_world = inverse(world_from_local);
-    function.material         = rand1i(rng, 4);
-    scene.sdfunctions.push_back(function);
-  }
+  add_random_primitives(scene, count, 5, size, 4, seed);
   auto floor               = sdf_function_data{};
   auto plane               = sdf_node{};
   plane.type               = sdf_type::plane;

@@ -12,6 +12,7 @@
 
 #include "../math/random.h"
 #include "../math/sampling.h"
+#include "../scene/scene_random.h"
 #include "../sdf/sdf_primitives.h"
 #include "sphere_trace.h"
 #include "trace.h"
@@ -170,47 +171,8 @@ TEST_CASE("accel: world bounds of rotated and scaled objects") {
 static scene_data make_random_scene(
     int count, uint64_t seed, bool floor = true) {
   auto scene = scene_data{};
-  auto rng   = make_rng(seed);
   scene.materials.push_back({});
-  for (auto i = 0; i < count; i++) {
-    auto node = sdf_node{};
-    auto half = vec3f{0, 0, 0};
-    switch (i % 4) {
-      case 0:
-        node.type = sdf_type::box;
-        node.size = {1, 0.6f, 0.8f};
-        half      = node.size * 0.5f;
-        break;
-      case 1:
-        node.type   = sdf_type::sphere;
-        node.radius = 0.5f;
-        break;
-      case 2:
-        node.type    = sdf_type::torus;
-        node.radius  = 0.4f;
-        node.radius2 = 0.12f;
-        break;
-      default:
-        node.type    = sdf_type::capped_cone;
-        node.height  = 0.5f;
-        node.radius  = 0.5f;
-        node.radius2 = 0.4f * rand1f(rng);
-        break;
-    }
-    auto axes  = basis_fromz(sample_sphere(rand2f(rng)));
-    auto scale = vec3f{0.6f + 0.8f * rand1f(rng), 0.6f + 0.8f * rand1f(rng),
-                     0.6f + 0.8f * rand1f(rng)} *
-                 1.5f;
-    auto world_from_local = frame3f{
-        axes.x * scale.x, axes.y * scale.y, axes.z * scale.z, {0, 0, 0}};
-    auto center = (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 8;
-    world_from_local.o = center - transform_vector(world_from_local, half);
-    auto function      = sdf_function_data{};
-    function.program   = make_primitive_program(node);
-    function.local_from_world = inverse(world_from_local);
-    function.material         = 0;
-    scene.sdfunctions.push_back(function);
-  }
+  add_random_primitives(scene, count, 4, 1.5f, 1, seed);
   if (floor) {
     auto plane = sdf_node{};
     plane.type = sdf_type::plane;

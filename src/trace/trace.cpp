@@ -242,7 +242,10 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
         auto pdf = sample_delta_pdf(material, point.normal, outgoing, incoming);
         if (pdf <= 0) break;
         weight *= eval_delta(material, point.normal, outgoing, incoming) / pdf;
-        bsdf_pdf = 0;
+        // A volumetric boundary only lets the path through, and light
+        // samples see through it too (eval_unscattered): emission found
+        // beyond it keeps the MIS weight of the sample that led here.
+        if (material.type != material_type::volumetric) bsdf_pdf = 0;
       } else if (two_sample && volumes.size == 0) {
         // Light sample, traced to whatever emits along it.
         auto light = sample_lights(scene, accel, lights, point.position,
