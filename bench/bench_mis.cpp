@@ -1,9 +1,10 @@
 // # bench_mis: equal-time error of the light-sampling strategies
 //
 // Renders a reference with many samples, then renders the scene with MIS off
-// (BSDF sampling only), the seed's one-sample MIS and two-sample MIS, each for
-// the same wall-clock budget, and prints the RMSE of each against the
-// reference. Clamping is off so that no strategy is biased by it.
+// (BSDF sampling only), the seed's one-sample MIS and two-sample MIS, with
+// independent random numbers and with scrambled Sobol points, each for the
+// same wall-clock budget, and prints the RMSE of each against the reference.
+// Clamping is off so that no strategy is biased by it.
 //
 // Usage: bench_mis [scene.json] [--resolution N] [--reference-samples N]
 //        [--seconds S] [--bounces N]
@@ -97,22 +98,33 @@ int main(int argc, char** argv) {
       filename.c_str(), reference.image.width, reference.image.height, bounces,
       reference.samples, reference.seconds);
   std::printf(
-      "| sampler | samples in %.0f s | RMSE | RMSE ratio to one-sample |\n",
+      "| strategy, sampler | samples in %.0f s | RMSE | RMSE ratio to "
+      "one-sample random |\n",
       seconds);
   std::printf("|---|---|---|---|\n");
   struct mode {
-    const char* name;
-    bool        mis;
-    mis_type    type;
+    const char*  name;
+    bool         mis;
+    mis_type     type;
+    sampler_type sampler;
   };
-  auto modes = {mode{"MIS off (--noimplicitmis)", false, mis_type::one_sample},
-      mode{"one-sample MIS (--mis one)", true, mis_type::one_sample},
-      mode{"two-sample MIS (--mis two)", true, mis_type::two_sample}};
+  auto random = sampler_type::random, sobol = sampler_type::sobol;
+  auto modes   = {mode{"MIS off (--noimplicitmis), random", false,
+                    mis_type::one_sample, random},
+        mode{"one-sample MIS (--mis one), random", true, mis_type::one_sample,
+          random},
+        mode{"two-sample MIS (--mis two), random", true, mis_type::two_sample,
+          random},
+        mode{"one-sample MIS (--mis one), sobol", true, mis_type::one_sample,
+          sobol},
+        mode{"two-sample MIS (--mis two), sobol", true, mis_type::two_sample,
+          sobol}};
   auto results = std::vector<std::pair<timed_render, double>>{};
   for (auto& m : modes) {
     auto p         = params;
     p.implicit_mis = m.mis;
     p.mis          = m.type;
+    p.sampler      = m.sampler;
     auto render    = render_for(scene, accel, lights, p, seconds, 1 << 30);
     results.push_back({render, rmse(render.image, reference.image)});
   }

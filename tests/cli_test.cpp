@@ -42,7 +42,8 @@ TEST_CASE("cli: bad options and values fail with a one-line reason") {
            std::string{"--samples abc"}, std::string{"--resolution -5"},
            std::string{"--shader nope"}, std::string{"--accel fast"},
            std::string{"--clamp -1"}, std::string{"--output out.gif"},
-           std::string{"--stmaxiter 0"}}) {
+           std::string{"--stmaxiter 0"}, std::string{"--mis three"},
+           std::string{"--sampler halton"}}) {
     auto result = run_ypathtrace(
         "--scene " + example_scene() + " " + args +
         (args.find("--output") == std::string::npos ? " --output " + out : ""));
@@ -54,6 +55,8 @@ TEST_CASE("cli: bad options and values fail with a one-line reason") {
   auto shader = run_ypathtrace("--shader nope");
   CHECK(shader.output.find("implicit_normal") !=
         std::string::npos);  // lists valid names
+  auto sampler = run_ypathtrace("--sampler halton");
+  CHECK(sampler.output.find("sobol") != std::string::npos);
 }
 
 TEST_CASE("cli: missing or broken scene fails without output") {

@@ -32,6 +32,7 @@ struct app_options {
   std::string  shader        = "implicit";
   std::string  accel         = "bvh";
   std::string  mis           = "two";
+  std::string  sampler       = "sobol";
   trace_params params        = {};
   float        exposure      = 0;
   bool         filmic        = false;
@@ -101,6 +102,10 @@ static void add_options(CLI::App& app, app_options& opts) {
          "Light sampling: one (the seed's one-sample MIS) or two (two-sample, "
          "power heuristic)")
       ->capture_default_str();
+  app.add_option("--sampler", opts.sampler,
+         "Random numbers: sobol (scrambled Sobol points, stratified per "
+         "pixel) or random (independent PCG32 numbers, as Yocto/GL)")
+      ->capture_default_str();
   app.add_option(
          "--stmaxiter", p.march.max_iterations, "Sphere-tracing iteration cap")
       ->check(CLI::Range(1, 1000000))
@@ -143,6 +148,8 @@ static void validate_options(app_options& opts) {
       parse_enum<shader_type>("--shader", opts.shader, shader_type_names);
   p.accel = parse_enum<accel_type>("--accel", opts.accel, accel_type_names);
   p.mis   = parse_enum<mis_type>("--mis", opts.mis, mis_type_names);
+  p.sampler =
+      parse_enum<sampler_type>("--sampler", opts.sampler, sampler_type_names);
   p.implicit_mis = !opts.noimplicitmis;
   if (!opts.interactive &&
       (opts.frames > 0 || !opts.screenshot.empty() || !opts.orbit.empty()))

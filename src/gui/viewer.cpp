@@ -260,6 +260,7 @@ static bool draw_render_settings(viewer_state& state) {
     ImGui::SetNextItemWidth(80);
     edited |= combo_enum("mis", params.mis, mis_type_names);
   }
+  edited |= combo_enum("sampler", params.sampler, sampler_type_names);
   edited |= ImGui::SliderFloat(
       "clamp", &params.clamp, 1, 10000, "%.1f", ImGuiSliderFlags_Logarithmic);
   edited |= ImGui::Checkbox("envhidden", &params.envhidden);

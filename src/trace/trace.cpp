@@ -8,6 +8,7 @@
 #include <array>
 
 #include "../math/sampling.h"
+#include "../math/sobol.h"
 #include "shading.h"
 
 namespace implicit {
@@ -146,6 +147,24 @@ struct volume_stack {
   int                           size  = 0;
 };
 
+// The random numbers of one path: the next dimensions of the pixel's
+// scrambled Sobol sample, or the pixel's PCG32 stream.
+struct path_sampler {
+  sampler_type type  = sampler_type::sobol;
+  sobol_state  sobol = {};
+  rng_state*   rng   = nullptr;
+};
+
+static float next1f(path_sampler& sampler) {
+  return sampler.type == sampler_type::sobol ? sample1f(sampler.sobol)
+                                             : rand1f(*sampler.rng);
+}
+
+static vec2f next2f(path_sampler& sampler) {
+  return sampler.type == sampler_type::sobol ? sample2f(sampler.sobol)
+                                             : rand2f(*sampler.rng);
+}
+
 // Path tracer. One-sample MIS (the seed's): each bounce samples the BSDF or
 // the lights 50/50 and weights by the mixture pdf; emission is collected
 // where the path lands, so emitters that cannot be sampled are still found.
@@ -153,7 +172,7 @@ struct volume_stack {
 // and continues with a BSDF sample, both weighted by the power heuristic.
 static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const ray3f& camera_ray,
-    const trace_params& params, rng_state& rng, int64_t& evaluations) {
+    const trace_params& params, path_sampler& sampler, int64_t& evaluations) {
   auto radiance      = vec3f{0, 0, 0};
   auto weight        = vec3f{1, 1, 1};
   auto ray           = camera_ray;
@@ -187,7 +206,7 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     if (volumes.size > 0) {
       auto& medium   = volumes.items[volumes.size - 1];
       auto  distance = sample_transmittance(
-           medium.density, isec.distance, rand1f(rng), rand1f(rng));
+           medium.density, isec.distance, next1f(sampler), next1f(sampler));
       auto pdf =
           sample_transmittance_pdf(medium.density, distance, isec.distance);
       if (pdf <= 0) break;
@@ -202,12 +221,12 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       auto  position = ray_point(ray, isec.distance);
       auto  outgoing = -ray.d;
       auto  incoming = vec3f{0, 0, 0};
-      if (!use_lights || rand1f(rng) < 0.5f) {
-        incoming =
-            sample_scattering(medium, outgoing, rand1f(rng), rand2f(rng));
+      if (!use_lights || next1f(sampler) < 0.5f) {
+        incoming = sample_scattering(
+            medium, outgoing, next1f(sampler), next2f(sampler));
       } else {
-        incoming = sample_lights(scene, accel, lights, position, rand1f(rng),
-            rand1f(rng), rand2f(rng));
+        incoming = sample_lights(scene, accel, lights, position,
+            next1f(sampler), next1f(sampler), next2f(sampler));
       }
       if (incoming == vec3f{0, 0, 0}) break;
       auto pdf = sample_scattering_pdf(medium, outgoing, incoming);
@@ -224,7 +243,7 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       auto& material = point.material;
 
       // Opacity: continue straight through (bounded, as Yocto does).
-      if (material.opacity < 1 && rand1f(rng) >= material.opacity) {
+      if (material.opacity < 1 && next1f(sampler) >= material.opacity) {
         if (opacity_skips++ > 128) break;
         ray = spawn_ray(accel, point, ray.d);
         bounce--;
@@ -237,7 +256,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
 
       auto incoming = vec3f{0, 0, 0};
       if (is_delta(material)) {
-        incoming = sample_delta(material, point.normal, outgoing, rand1f(rng));
+        incoming =
+            sample_delta(material, point.normal, outgoing, next1f(sampler));
         if (incoming == vec3f{0, 0, 0}) break;
         auto pdf = sample_delta_pdf(material, point.normal, outgoing, incoming);
         if (pdf <= 0) break;
@@ -249,7 +269,7 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       } else if (two_sample && volumes.size == 0) {
         // Light sample, traced to whatever emits along it.
         auto light = sample_lights(scene, accel, lights, point.position,
-            rand1f(rng), rand1f(rng), rand2f(rng));
+            next1f(sampler), next1f(sampler), next2f(sampler));
         if (light != vec3f{0, 0, 0}) {
           auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
           auto lpdf =
@@ -265,7 +285,7 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
         }
         // BSDF sample, which also continues the path.
         incoming = sample_bsdfcos(
-            material, point.normal, outgoing, rand1f(rng), rand2f(rng));
+            material, point.normal, outgoing, next1f(sampler), next2f(sampler));
         if (incoming == vec3f{0, 0, 0}) break;
         auto pdf =
             sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
@@ -275,12 +295,12 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
         bsdf_pdf = pdf;
         from     = point.position;
       } else {
-        if (!use_lights || rand1f(rng) < 0.5f) {
-          incoming = sample_bsdfcos(
-              material, point.normal, outgoing, rand1f(rng), rand2f(rng));
+        if (!use_lights || next1f(sampler) < 0.5f) {
+          incoming = sample_bsdfcos(material, point.normal, outgoing,
+              next1f(sampler), next2f(sampler));
         } else {
           incoming = sample_lights(scene, accel, lights, point.position,
-              rand1f(rng), rand1f(rng), rand2f(rng));
+              next1f(sampler), next1f(sampler), next2f(sampler));
         }
         if (incoming == vec3f{0, 0, 0}) break;
         auto pdf =
@@ -311,7 +331,7 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     // Russian roulette after a few bounces.
     if (bounce > 3) {
       auto survive = std::min(0.99f, max(weight));
-      if (rand1f(rng) >= survive) break;
+      if (next1f(sampler) >= survive) break;
       weight /= survive;
     }
   }
@@ -400,21 +420,28 @@ static float tent_offset(float r) {
 
 vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const trace_params& params, int i, int j,
-    int width, int height, rng_state& rng, int64_t& evaluations) {
-  auto& camera = scene.cameras[params.camera];
-  auto  puv    = rand2f(rng);
+    int width, int height, int sample, rng_state& rng, int64_t& evaluations) {
+  auto& camera  = scene.cameras[params.camera];
+  auto  sampler = path_sampler{params.sampler, {}, &rng};
+  if (params.sampler == sampler_type::sobol) {
+    auto seed =
+        hash_uint32((uint32_t)params.seed ^ (uint32_t)(params.seed >> 32));
+    sampler.sobol = make_sobol(
+        hash_combine(seed, (uint32_t)(j * width + i)), (uint32_t)sample);
+  }
+  auto puv = next2f(sampler);
   if (params.tentfilter)
     puv = vec2f{tent_offset(puv.x), tent_offset(puv.y)} + vec2f{0.5f, 0.5f};
   auto uv = vec2f{(i + puv.x) / width, (j + puv.y) / height};
   // The lens sample is drawn only for cameras that use it (pinholes skip
   // the warp, as it costs a sizeable part of a camera ray).
-  auto lens = camera.aperture > 0 ? sample_disk(rand2f(rng)) : vec2f{0, 0};
-  auto ray  = eval_camera(camera, uv, lens);
-  auto color =
-      params.shader == shader_type::implicit
-          ? shade_implicit(scene, accel, lights, ray, params, rng, evaluations)
-          : shade_debug(scene, accel, ray, params, evaluations);
-  auto rgb = xyz(color);
+  auto lens  = camera.aperture > 0 ? sample_disk(next2f(sampler)) : vec2f{0, 0};
+  auto ray   = eval_camera(camera, uv, lens);
+  auto color = params.shader == shader_type::implicit
+                   ? shade_implicit(scene, accel, lights, ray, params, sampler,
+                         evaluations)
+                   : shade_debug(scene, accel, ray, params, evaluations);
+  auto rgb   = xyz(color);
   if (!isfinite(rgb)) rgb = {0, 0, 0};
   if (max(rgb) > params.clamp) rgb = rgb * (params.clamp / max(rgb));
   // Without envhidden the environment counts as coverage.
@@ -432,7 +459,8 @@ void trace_tile(trace_state& state, const scene_data& scene,
     for (auto i = i0; i < i1; i++) {
       auto idx = (size_t)j * state.width + i;
       state.accumulated[idx] += trace_pixel(scene, accel, lights, params, i, j,
-          state.width, state.height, state.rngs[idx], state.evaluations[idx]);
+          state.width, state.height, state.samples, state.rngs[idx],
+          state.evaluations[idx]);
     }
   }
 }

@@ -40,6 +40,11 @@ inline const std::vector<std::string> shader_type_names = {"implicit",
 enum class mis_type { one_sample, two_sample };
 inline const std::vector<std::string> mis_type_names = {"one", "two"};
 
+// Where the random numbers of a path come from: scrambled Sobol points
+// (stratified per pixel, less noise) or independent PCG32 numbers (Yocto's).
+enum class sampler_type { sobol, random };
+inline const std::vector<std::string> sampler_type_names = {"sobol", "random"};
+
 struct trace_params {
   int          camera       = 0;
   int          resolution   = 720;
@@ -51,6 +56,7 @@ struct trace_params {
   bool         envhidden    = false;
   bool         implicit_mis = true;                  // false: --noimplicitmis
   mis_type     mis          = mis_type::two_sample;  // less noise at equal time
+  sampler_type sampler      = sampler_type::sobol;   // less noise per sample
   bool         tentfilter   = false;
   accel_type   accel        = accel_type::bvh;
   march_params march        = {};
@@ -115,10 +121,11 @@ image_data get_render(const trace_state& state);
 // passes (for tests, benchmarks and programs that need no progress).
 image_data trace_image(const scene_data& scene, const trace_params& params);
 
-// One sample of pixel (i, j); exposed for tests and the viewer's preview.
+// Sample `sample` of pixel (i, j); `rng` is the pixel's stream for the
+// random sampler. Exposed for tests and the viewer's preview.
 vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const trace_params& params, int i, int j,
-    int width, int height, rng_state& rng, int64_t& evaluations);
+    int width, int height, int sample, rng_state& rng, int64_t& evaluations);
 
 // Whether the shader needs lights (and falls back to eyelight without).
 bool is_lit_shader(shader_type shader);

@@ -152,9 +152,10 @@ TEST_CASE("trace: implicit_normal colours and alpha") {
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
   auto image        = trace_image(scene, params);
-  // Centre pixel sees the sphere's +z pole: colour (0.5, 0.5, 1).
+  // Centre pixel sees the sphere's +z pole: colour (0.5, 0.5, 1), up to
+  // where the one jittered sample lands in the pixel (|n.x| < 0.06).
   auto centre = pixel(image, 16, 16);
-  CHECK(centre.x == doctest::Approx(0.5f).epsilon(0.02).scale(0));
+  CHECK(std::abs(centre.x - 0.5f) < 0.03f);
   CHECK(centre.z == doctest::Approx(1.0f).epsilon(0.01));
   CHECK(centre.w == 1);
   CHECK(pixel(image, 0, 0).w == 0);  // a miss is transparent

@@ -12,6 +12,7 @@
 #   SPP_CYCLES samples per pixel per batch, Cycles [512]
 #   BOUNCES    path length limit, both renderers [16]
 #   MIS        ypathtrace --mis [two, the default of ypathtrace]
+#   SAMPLER    ypathtrace --sampler [sobol, the default of ypathtrace]
 #   THREADS    threads per renderer [1]
 #   SEED       first seed; batch k uses SEED + k [1000]
 # Renders already in OUT are reused (delete them to rerun).
@@ -26,6 +27,7 @@ SPP_OURS=${SPP_OURS:-1024}
 SPP_CYCLES=${SPP_CYCLES:-512}
 BOUNCES=${BOUNCES:-16}
 MIS=${MIS:-two}
+SAMPLER=${SAMPLER:-sobol}
 THREADS=${THREADS:-1}
 SEED=${SEED:-1000}
 
@@ -42,7 +44,7 @@ ours_case() {
 
 for case in $CASES; do
   ours=$(ours_case "$case")
-  ours_prefix=$OUT/ours_${ours}_mis${MIS}_b${BOUNCES}
+  ours_prefix=$OUT/ours_${ours}_mis${MIS}_${SAMPLER}_b${BOUNCES}
   cycles_prefix=$OUT/cycles_${case}_b${BOUNCES}
   if [[ ! -f ${ours_prefix}_$((BATCHES - 1)).exr ]]; then
     start=$SECONDS
@@ -50,9 +52,10 @@ for case in $CASES; do
       "$BUILD/ypathtrace" --scene "$OUT/$ours.json" \
         --output "${ours_prefix}_$k.exr" --resolution 200 \
         --samples "$SPP_OURS" --bounces "$BOUNCES" --clamp 1e6 --mis "$MIS" \
+        --sampler "$SAMPLER" \
         --seed $((SEED + k)) --threads "$THREADS" --quiet
     done
-    echo "ours   $ours: $BATCHES x $SPP_OURS spp in $((SECONDS - start)) s" >&2
+    echo "ours   $ours ($MIS, $SAMPLER): $BATCHES x $SPP_OURS spp in $((SECONDS - start)) s" >&2
   fi
   if [[ ! -f ${cycles_prefix}_$((BATCHES - 1)).exr ]]; then
     start=$SECONDS
@@ -70,21 +73,21 @@ for case in $CASES; do
   ours=$(ours_case "$case")
   ours_files=() cycles_files=()
   for ((k = 0; k < BATCHES; k++)); do
-    ours_files+=("$OUT/ours_${ours}_mis${MIS}_b${BOUNCES}_$k.exr")
+    ours_files+=("$OUT/ours_${ours}_mis${MIS}_${SAMPLER}_b${BOUNCES}_$k.exr")
     cycles_files+=("$OUT/cycles_${case}_b${BOUNCES}_$k.exr")
   done
   "$BUILD/crosscheck_compare" --mask "$OUT/regions.pgm" \
     --names "$OUT/regions.txt" --case "$case" --ours "${ours_files[@]}" \
     --ref "${cycles_files[@]}" \
-    --png "$OUT/side_by_side_${case}_mis${MIS}_b${BOUNCES}.png"
+    --png "$OUT/side_by_side_${case}_mis${MIS}_${SAMPLER}_b${BOUNCES}.png"
 done
 
 # One picture of a few cases for the README: ours | Cycles | |difference| x 4.
 montage=()
 for case in glass subsurface volumetric env_metal; do
-  png=$OUT/side_by_side_${case}_mis${MIS}_b${BOUNCES}.png
+  png=$OUT/side_by_side_${case}_mis${MIS}_${SAMPLER}_b${BOUNCES}.png
   [[ -f $png ]] && montage+=("$png")
 done
 if ((${#montage[@]} > 0)); then
-  "$BUILD/crosscheck_compare" stack --output "$OUT/montage_mis${MIS}.png" "${montage[@]}"
+  "$BUILD/crosscheck_compare" stack --output "$OUT/montage_mis${MIS}_${SAMPLER}.png" "${montage[@]}"
 fi
