@@ -25,12 +25,12 @@ struct sobol_state {
   uint32_t dimension      = 0;
 };
 
+// Bits in reverse order: bytes by a byte swap, then bits within bytes.
 inline uint32_t reverse_bits(uint32_t x) {
+  x = __builtin_bswap32(x);
   x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
   x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
-  x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
-  x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
-  return (x >> 16) | (x << 16);
+  return ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
 }
 
 // A 32-bit integer hash with good avalanche (Wellons' lowbias32).

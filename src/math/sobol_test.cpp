@@ -42,6 +42,14 @@ TEST_CASE("sobol: owen_scramble is a bijection that keeps top-bit strata") {
   }
 }
 
+TEST_CASE("sobol: reverse_bits") {
+  CHECK(reverse_bits(1u) == 0x80000000u);
+  CHECK(reverse_bits(0x12345678u) == 0x1e6a2c48u);
+  CHECK(reverse_bits(0xf0000001u) == 0x8000000fu);
+  for (auto x : {0u, 7u, 0xdeadbeefu, 0xffffffffu})
+    CHECK(reverse_bits(reverse_bits(x)) == x);
+}
+
 TEST_CASE("sobol: dimension 1 tables equal the direction-number loop") {
   auto rng = make_rng(11);
   for (auto k = 0; k < 1000; k++) {
