@@ -112,21 +112,25 @@ inline uint32_t next_shuffled_index(sobol_state& state, uint32_t& seed) {
   return reverse_bits(laine_karras(state.reversed_index, seed));
 }
 
+// Scrambled dimension 0 of a shuffled index: owen_scramble(
+// sobol_dimension0(index)) with the reversals cancelled.
+inline float scrambled_dimension0(uint32_t index, uint32_t seed) {
+  return fraction_to_float(
+      reverse_bits(laine_karras(index, hash_uint32(seed + 1))));
+}
+
 // Next dimension as one value.
 inline float sample1f(sobol_state& state) {
   auto seed  = 0u;
   auto index = next_shuffled_index(state, seed);
-  // owen_scramble(sobol_dimension0(index)) with the reversals cancelled.
-  return fraction_to_float(
-      reverse_bits(laine_karras(index, hash_uint32(seed + 1))));
+  return scrambled_dimension0(index, seed);
 }
 
 // Next dimension as a 2D point.
 inline vec2f sample2f(sobol_state& state) {
   auto seed  = 0u;
   auto index = next_shuffled_index(state, seed);
-  return {fraction_to_float(
-              reverse_bits(laine_karras(index, hash_uint32(seed + 1)))),
+  return {scrambled_dimension0(index, seed),
       fraction_to_float(
           owen_scramble(sobol_dimension1(index), hash_uint32(seed + 2)))};
 }

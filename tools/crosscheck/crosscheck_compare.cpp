@@ -24,6 +24,7 @@
 #include <cstdio>
 #include <fstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "image/image.h"
@@ -76,13 +77,12 @@ static std::vector<std::string> load_names(const std::string& filename) {
 // STATISTICS
 // -----------------------------------------------------------------------------
 
-// Mean and standard error of the mean of each region over a set of renders.
+// Mean and standard error of the mean of each region over a set of renders,
+// per channel: R, G, B and their average (index 3).
 struct region_stats {
-  std::vector<std::array<double, 3>> mean        = {};  // per region, RGB
-  std::vector<std::array<double, 3>> stderr_     = {};  // of the mean, RGB
-  std::vector<double>                gray_mean   = {};  // channel average
-  std::vector<double>                gray_stderr = {};
-  std::vector<int>                   pixels      = {};
+  std::vector<std::array<double, 4>> mean    = {};
+  std::vector<std::array<double, 4>> stderr_ = {};
+  std::vector<int>                   pixels  = {};
 };
 
 // Region means of each render, then their average and its standard error
@@ -122,12 +122,20 @@ static region_stats compute_stats(const std::vector<image_data>& images,
       }
     auto se = std::array<double, 4>{};
     for (auto c = 0; c < 4; c++) se[c] = std::sqrt(var[c] / batches);
-    stats.mean.push_back({mean[0], mean[1], mean[2]});
-    stats.stderr_.push_back({se[0], se[1], se[2]});
-    stats.gray_mean.push_back(mean[3]);
-    stats.gray_stderr.push_back(se[3]);
+    stats.mean.push_back(mean);
+    stats.stderr_.push_back(se);
   }
   return stats;
+}
+
+// Relative difference a / b - 1 of channel c in region r, and its standard
+// error from both sides' (first-order error propagation).
+static std::pair<double, double> relative_difference(
+    const region_stats& a, const region_stats& b, int r, int c) {
+  auto ma = a.mean[r][c], mb = b.mean[r][c];
+  auto se = std::sqrt(std::pow(a.stderr_[r][c] / mb, 2) +
+                      std::pow(ma * b.stderr_[r][c] / (mb * mb), 2));
+  return {ma / mb - 1, se};
 }
 
 // Average of a set of renders of the same size.
@@ -251,18 +259,10 @@ int main(int argc, const char** argv) {
     // average; se = its standard error (both sides); z = rel / se;
     // worst = the channel with the largest |relative difference|.
     for (auto r = 0; r < regions; r++) {
-      auto rel   = a.gray_mean[r] / b.gray_mean[r] - 1;
-      auto se    = std::sqrt(std::pow(a.gray_stderr[r] / b.gray_mean[r], 2) +
-                             std::pow(a.gray_mean[r] * b.gray_stderr[r] /
-                                          (b.gray_mean[r] * b.gray_mean[r]),
-                                 2));
+      auto [rel, se] = relative_difference(a, b, r, 3);
       auto worst = 0.0, worst_se = 0.0;
       for (auto c = 0; c < 3; c++) {
-        auto rc  = a.mean[r][c] / b.mean[r][c] - 1;
-        auto sec = std::sqrt(std::pow(a.stderr_[r][c] / b.mean[r][c], 2) +
-                             std::pow(a.mean[r][c] * b.stderr_[r][c] /
-                                          (b.mean[r][c] * b.mean[r][c]),
-                                 2));
+        auto [rc, sec] = relative_difference(a, b, r, c);
         if (std::abs(rc) > std::abs(worst)) worst = rc, worst_se = sec;
       }
       std::printf(
