@@ -439,10 +439,11 @@ def rounded_box(size, radius, center=ORIGIN):
 def wireframe_box(size, thickness, center=ORIGIN):
     """The edges of a box of full size `size`: bars `thickness` wide, flush
     with the box's faces (inside it; fogleman/sdf centres them on the
-    edges)."""
+    edges). The JSON `bbox` bars span 2 x its `thickness`."""
     return _placed({"type": "bbox",
                     "whd": _floats(_positive_vec3("size", size) / 2),
-                    "thickness": _positive("thickness", thickness)}, center)
+                    "thickness": _positive("thickness", thickness) / 2},
+                   center)
 
 
 box_frame = wireframe_box
