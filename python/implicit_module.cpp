@@ -24,6 +24,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdint>
 #include <cstring>
 #include <exception>
 #include <memory>
@@ -215,6 +216,10 @@ render_options read_render_options(const py::kwargs& kwargs) {
     } else if (key == "bounces") {
       p.bounces = read_int_option(key, value, 1, 1024);
     } else if (key == "clamp") {
+      if (py::isinstance<py::bool_>(value) ||
+          !(py::isinstance<py::float_>(value) ||
+              py::isinstance<py::int_>(value)))
+        throw py::type_error("clamp: expected a number");
       auto clamp = value.cast<double>();
       if (!(clamp > 0) || !std::isfinite(clamp))
         throw py::value_error("clamp: must be a finite number > 0, found " +
@@ -223,9 +228,11 @@ render_options read_render_options(const py::kwargs& kwargs) {
     } else if (key == "seed") {
       if (py::isinstance<py::bool_>(value) || !py::isinstance<py::int_>(value))
         throw py::type_error("seed: expected an integer");
-      if (value.cast<py::int_>() < py::int_(0))
-        throw py::value_error("seed: must be >= 0");
-      p.seed = value.cast<uint64_t>();
+      auto seed = py::reinterpret_borrow<py::int_>(value);
+      if (seed < py::int_(0) || seed > py::int_(UINT64_MAX))
+        throw py::value_error("seed: must be in [0, 2**64 - 1], found " +
+                              std::string{py::str(seed)});
+      p.seed = seed.cast<uint64_t>();
     } else if (key == "envhidden") {
       p.envhidden = read_bool_option(key, value);
     } else if (key == "tentfilter") {

@@ -187,6 +187,8 @@ def test_bad_render_options(source_dir):
             ({"clamp": float("nan")}, ValueError, "clamp"),
             ({"clamp": -1}, ValueError, "clamp"),
             ({"seed": -3}, ValueError, "seed"),
+            ({"seed": 2**64}, ValueError, r"seed: must be in \[0, 2\*\*64"),
+            ({"clamp": "big"}, TypeError, "clamp: expected a number"),
             ({"shader": "fancy"}, ValueError, "valid: implicit, "),
             ({"mis": "three"}, ValueError, "valid: one, two"),
             ({"envhidden": 1}, TypeError, "envhidden"),
