@@ -167,12 +167,12 @@ int read_int_option(
     throw py::type_error(
         key + ": expected an integer, found " +
         std::string{py::str(value.get_type().attr("__name__"))});
-  auto number = value.cast<long long>();
-  if (number < lo || number > hi)
+  auto number = py::reinterpret_borrow<py::int_>(value);
+  if (number < py::int_(lo) || number > py::int_(hi))
     throw py::value_error(key + ": must be in [" + std::to_string(lo) + ", " +
                           std::to_string(hi) + "], found " +
-                          std::to_string(number));
-  return (int)number;
+                          std::string{py::str(number)});
+  return number.cast<int>();
 }
 
 std::string read_string_option(const std::string& key, py::handle value) {

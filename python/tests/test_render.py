@@ -186,6 +186,7 @@ def test_bad_render_options(source_dir):
             ({"samples": -1}, out_of_range, "samples"),
             ({"samples": 0}, out_of_range, "samples"),
             ({"samples": 2**40}, out_of_range, "samples"),
+            ({"samples": 2**70}, out_of_range, "samples"),
             ({"samples": 1.5}, TypeError, "samples: expected an integer"),
             ({"resolution": 100000}, out_of_range, "resolution"),
             ({"clamp": float("nan")}, out_of_range, "clamp"),
