@@ -444,6 +444,7 @@ py::array_t<float> render_scene(const std::shared_ptr<py_scene>& scene,
 struct py_renderer {
   std::unique_ptr<prepared_render> render = {};
   trace_state                      state  = {};
+  bool busy = false;  // a step is running (read and set with the GIL)
 };
 
 std::unique_ptr<py_renderer> make_renderer(
@@ -464,14 +465,20 @@ void step_renderer(
         std::to_string(count));
   if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
     throw py::type_error("progress: expected a callable or None");
-  auto backup = renderer.state;
+  if (renderer.busy)
+    throw std::runtime_error(
+        "step: this renderer is already rendering (in another thread)");
+  renderer.busy = true;
+  auto backup   = renderer.state;
   try {
     trace_passes(*renderer.render, renderer.state, count, progress,
         backup.samples, backup.samples + count);
   } catch (...) {
     renderer.state = std::move(backup);
+    renderer.busy  = false;
     throw;
   }
+  renderer.busy = false;
 }
 
 // -----------------------------------------------------------------------------
@@ -659,6 +666,9 @@ PYBIND11_MODULE(_implicit, m) {
             return shader_type_names[(int)r.render->params.shader];
           })
       .def("image", [](const py_renderer& r) {
+        if (r.busy)
+          throw std::runtime_error(
+              "image: the renderer is rendering (in another thread)");
         return image_to_array(get_render(r.state));
       });
 

@@ -324,3 +324,30 @@ def test_ctrl_c_stops_the_render(source_dir):
     finally:
         timer.cancel()
     assert time.perf_counter() - start < 10
+
+
+def test_renderer_refuses_a_second_thread(source_dir):
+    renderer = im.Renderer(slow_scene(source_dir), resolution=64)
+    errors = []
+
+    def other():
+        for call in (renderer.step, lambda: renderer.array):
+            try:
+                call()
+            except RuntimeError as error:
+                errors.append(str(error))
+
+    thread = threading.Thread(target=other)
+
+    def progress(done, total):
+        if not thread.is_alive():
+            thread.start()
+            thread.join()
+            raise RuntimeError("enough")
+
+    with pytest.raises(RuntimeError, match="enough"):
+        renderer.step(100000, progress=progress)
+    assert len(errors) == 2 and "another thread" in errors[0]
+    assert renderer.samples == 0
+    renderer.step()
+    assert renderer.samples == 1
