@@ -66,20 +66,27 @@ def test_loaded_scene_and_path_give_the_same_image(source_dir):
     assert np.array_equal(a, b)
 
 
-def make_scene(grid_path=None):
-    """A scene with every kind of element, built in Python."""
+def make_scene(grid_path=None, textures=None):
+    """A scene with every kind of element, built in Python; `textures` is
+    the folder of the example textures."""
     scene = im.Scene()
     f = (im.sphere(0.5) & im.box(0.8)) - im.cylinder(0.2, 2).orient(im.X)
     scene.add(f.translate((0, 0.4, 0)),
               {"type": "glossy", "color": (0.8, 0.3, 0.2), "roughness": 0.2},
               name="shape")
-    floor = scene.add_material("matte", color=(0.7, 0.7, 0.7), name="floor")
+    floor = scene.add_material(
+        "matte", color=(0.7, 0.7, 0.7), name="floor",
+        color_tex=None if textures is None else
+        os.path.join(textures, "checker.tga"))
     scene.add(im.plane(), floor, name="floor")
     scene.add(im.torus(0.3, 0.08).translate((-0.8, 0.1, 0)),
               {"type": "refractive", "color": (1, 1, 1), "ior": 1.5})
     scene.add_light(im.sphere(0.3, center=(1, 2, 1)), (20, 20, 20),
                     name="light")
-    scene.add_environment((0.2, 0.25, 0.3), rotate=0.5)
+    scene.add_environment(
+        (0.2, 0.25, 0.3), rotate=0.5,
+        texture=None if textures is None else
+        os.path.join(textures, "sky.hdr"))
     if grid_path is not None:
         im.sphere(0.25).save_grid(grid_path, 0.05)
         scene.add_grid(grid_path, {"type": "reflective",
@@ -90,14 +97,18 @@ def make_scene(grid_path=None):
     return scene
 
 
-def test_python_scene_saved_renders_the_same_in_the_cli(ypathtrace, tmp_path):
+def test_python_scene_saved_renders_the_same_in_the_cli(ypathtrace, tmp_path,
+                                                       source_dir):
     os.makedirs(tmp_path / "grids")
-    scene = make_scene(tmp_path / "grids" / "ball.vdb")
+    textures = os.path.join(source_dir, "examples", "materials", "textures")
+    scene = make_scene(tmp_path / "grids" / "ball.vdb", textures)
     path = tmp_path / "scene.json"
     scene.save(path)
     saved = json.loads(path.read_text())
     # The JSON round trip: paths relative to the file, the rest as built.
     assert saved["volumes"][0]["uri"] == "grids/ball.vdb"
+    assert saved["textures"][1]["uri"] == os.path.relpath(
+        os.path.join(textures, "sky.hdr"), tmp_path)
     assert saved == scene.to_dict(str(tmp_path))
     assert len(saved["sdfunctions"]) == 4 and len(saved["materials"]) == 5
     loaded = im.load_scene(path)
