@@ -369,20 +369,20 @@ static bool navigate(viewer_state& state) {
 }
 
 // The window and the loop.
-void run_viewer(scene_data& scene, accel_data& accel, const lights_data& lights,
-    const trace_params& params, const viewer_params& viewer) {
+void run_viewer(const render_context& context, const trace_params& params,
+    const viewer_params& viewer) {
   check_display();
   auto session = gl_session{};
   open_window(session, "ypathtrace - " + viewer.name, viewer.window);
 
   auto state     = viewer_state{};
   state.params   = params;
-  state.cameras  = scene.cameras;
+  state.cameras  = context.scene.cameras;
   state.exposure = viewer.exposure;
   state.filmic   = viewer.filmic;
   // Declared after the session, so it is joined before the window goes.
   auto worker = render_worker{};
-  start_worker(worker, scene, accel, lights);
+  start_worker(worker, context);
   restart(state, worker);
 
   auto frame      = 0;
