@@ -260,7 +260,7 @@ static void bench_scene(const std::string& name, const scene_data& scene,
       "| %s%s | %d | %.1f | %.3f | %.3f | %.1f | %.4f | %.4f | %.1f "
       "| %s%.1f | %s%.1f | %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f "
       "| %.2f | %.0f |\n",
-      name.c_str(), note.c_str(), (int)fast.objects.size(), build_ms,
+      name.c_str(), note.c_str(), (int)fast.accel.objects.size(), build_ms,
       mrays(fast_camera), per_cpu(fast_camera), evals(fast_camera),
       mrays(fast_path), per_cpu(fast_path), evals(fast_path), mark.c_str(),
       evals(ref_camera), mark.c_str(), evals(ref_path), mark.c_str(),

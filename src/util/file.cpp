@@ -40,8 +40,8 @@ void check_output_directory(const std::string& filename) {
   auto folder = parent.empty() ? std::filesystem::path{"."} : parent;
   auto error  = std::error_code{};
   if (!std::filesystem::is_directory(folder, error))
-    throw_io_error(filename,
-        "cannot write: folder " + folder.string() + " does not exist");
+    throw_io_error(filename, "cannot write: folder " + folder.string() +
+                                 " does not exist or is not a folder");
   if (::access(folder.c_str(), W_OK) != 0)
     throw_io_error(filename, "cannot write: folder " + folder.string() +
                                  " is not writable (" + std::strerror(errno) +
