@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <utility>
 
 namespace implicit {
@@ -113,7 +114,11 @@ static void run_worker(render_worker& worker) {
       id            = worker.latest.load();
       worker.posted = false;
     }
-    render_job_passes(worker, job, id);
+    // The viewer posts only validated parameters; should a job still be
+    // refused, it is dropped rather than ending the program.
+    try {
+      render_job_passes(worker, job, id);
+    } catch (const std::exception&) { continue; }
   }
 }
 

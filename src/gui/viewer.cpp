@@ -234,9 +234,10 @@ static bool combo_enum(
 
 // Render settings (Yocto/GL's ranges); returns whether any changed.
 static bool draw_render_settings(viewer_state& state) {
-  auto& params = state.params;
-  auto  edited = false;
-  auto  label  = camera_label(state, params.camera);
+  auto& params   = state.params;
+  auto  previous = params;
+  auto  edited   = false;
+  auto  label    = camera_label(state, params.camera);
   if (ImGui::BeginCombo("camera", label.c_str())) {
     for (auto i = 0; i < (int)state.cameras.size(); i++) {
       if (ImGui::Selectable(
@@ -275,6 +276,14 @@ static bool draw_render_settings(viewer_state& state) {
   params.pratio               = std::max(params.pratio, 1);
   params.clamp                = std::max(params.clamp, 1e-3f);
   params.march.max_iterations = std::max(params.march.max_iterations, 1);
+  // Anything else the render core refuses (NaN, values too large) is undone:
+  // the worker renders only valid parameters.
+  try {
+    validate_params(params);
+  } catch (const io_error&) {
+    params = previous;
+    return false;
+  }
   return edited;
 }
 
