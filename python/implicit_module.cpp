@@ -8,10 +8,13 @@
 // same scenes and compute the same images. Library errors (io_error) become
 // `implicit.Error`; bad Python arguments become ValueError or TypeError.
 //
-// Long calls (loading, rendering, baking, evaluating many points) release the
-// GIL. Rendering runs on a worker thread while the calling thread wakes every
-// few milliseconds, takes the GIL back and delivers Ctrl-C and the progress
-// callback; a pending exception cancels the render before its next tile.
+// Rendering is the library's render core (trace/render.h): the render
+// context, its fallbacks and its parameter checks are the ones ypathtrace
+// uses; this file only converts options and drives it. Long calls (loading,
+// rendering, baking, evaluating many points) release the GIL. Rendering runs
+// on a worker thread while the calling thread wakes every few milliseconds,
+// takes the GIL back and delivers Ctrl-C and the progress callback; a pending
+// exception cancels the render before its next tile.
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -22,6 +25,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <condition_variable>
 #include <cstdint>
@@ -40,7 +44,7 @@
 #include "sdf/sdf_mesh.h"
 #include "sdf/sdf_mesh_io.h"
 #include "sdf/sdf_program.h"
-#include "trace/trace.h"
+#include "trace/render.h"
 #include "util/error.h"
 
 namespace py = pybind11;
@@ -100,11 +104,13 @@ image_data array_to_image(const py::array& input) {
 // SCENES
 // -----------------------------------------------------------------------------
 
-// A loaded scene. Renders share it (read-only while they trace).
+// A loaded scene, as its render context (built once for the default
+// accelerator settings; renders share it, it never changes).
 struct py_scene {
-  scene_data               scene    = {};
-  std::string              filename = "";
-  std::vector<std::string> warnings = {};
+  std::shared_ptr<const render_context> context  = {};
+  trace_params                          built    = {};  // its accel settings
+  std::string                           filename = "";
+  std::vector<std::string>              warnings = {};
 };
 
 // Issue each message as a Python UserWarning.
@@ -114,27 +120,45 @@ void warn_all(const std::vector<std::string>& messages) {
       throw py::error_already_set();
 }
 
-std::shared_ptr<py_scene> load_scene_file(const std::string& filename) {
+// Load (or parse) a scene and make its render context, without the GIL.
+template <typename Load>
+std::shared_ptr<py_scene> make_py_scene(
+    const std::string& filename, const Load& load) {
   auto scene      = std::make_shared<py_scene>();
   scene->filename = filename;
   {
     py::gil_scoped_release release;
-    scene->scene = load_scene(filename, scene->warnings);
+    scene->context = make_render_context(load(scene->warnings), scene->built);
   }
   warn_all(scene->warnings);
   return scene;
 }
 
+std::shared_ptr<py_scene> load_scene_file(const std::string& filename) {
+  return make_py_scene(filename, [&](std::vector<std::string>& warnings) {
+    return load_scene(filename, warnings);
+  });
+}
+
 std::shared_ptr<py_scene> parse_scene_text(
     const std::string& text, const std::string& filename) {
-  auto scene      = std::make_shared<py_scene>();
-  scene->filename = filename;
-  {
-    py::gil_scoped_release release;
-    scene->scene = parse_scene(text, filename, scene->warnings, true);
-  }
-  warn_all(scene->warnings);
-  return scene;
+  return make_py_scene(filename, [&](std::vector<std::string>& warnings) {
+    return parse_scene(text, filename, warnings, true);
+  });
+}
+
+// The context to render `params` with: the scene's own, or, when the
+// options change what the context builds (the accelerator and the march
+// cap, the only accel settings Python sets), one made from a copy of the
+// scene.
+std::shared_ptr<const render_context> context_for(
+    const py_scene& scene, const trace_params& params) {
+  if (params.accel == scene.built.accel &&
+      params.march.max_iterations == scene.built.march.max_iterations)
+    return scene.context;
+  py::gil_scoped_release release;
+  auto                   copy = scene.context->scene;
+  return make_render_context(std::move(copy), params);
 }
 
 // -----------------------------------------------------------------------------
@@ -160,7 +184,8 @@ std::string join_names(const std::vector<std::string>& names) {
   return text;
 }
 
-// An integer option in [lo, hi] (the CLI's ranges).
+// An integer option in [lo, hi]: the C int range for values the library
+// checks, the CLI's range for front-end options (threads).
 int read_int_option(
     const std::string& key, const py::handle& value, int lo, int hi) {
   if (py::isinstance<py::bool_>(value) || !py::isinstance<py::int_>(value))
@@ -173,6 +198,11 @@ int read_int_option(
                           std::to_string(hi) + "], found " +
                           std::string{py::str(number)});
   return number.cast<int>();
+}
+
+// An option the library checks: any C int.
+int read_int_option(const std::string& key, const py::handle& value) {
+  return read_int_option(key, value, INT_MIN, INT_MAX);
 }
 
 std::string read_string_option(const std::string& key, py::handle value) {
@@ -210,21 +240,18 @@ render_options read_render_options(const py::kwargs& kwargs) {
     } else if (key == "camera") {
       options.camera = value.is_none() ? "" : read_string_option(key, value);
     } else if (key == "resolution") {
-      p.resolution = read_int_option(key, value, 1, 16384);
+      p.resolution = read_int_option(key, value);
     } else if (key == "samples") {
-      p.samples = read_int_option(key, value, 1, 1 << 20);
+      p.samples = read_int_option(key, value);
     } else if (key == "bounces") {
-      p.bounces = read_int_option(key, value, 1, 1024);
+      p.bounces = read_int_option(key, value);
     } else if (key == "clamp") {
       if (py::isinstance<py::bool_>(value) ||
           !(py::isinstance<py::float_>(value) ||
               py::isinstance<py::int_>(value)))
         throw py::type_error("clamp: expected a number");
-      auto clamp = value.cast<double>();
-      if (!(clamp > 0) || !std::isfinite(clamp))
-        throw py::value_error("clamp: must be a finite number > 0, found " +
-                              py::repr(value).cast<std::string>());
-      p.clamp = (float)clamp;
+      // Range and finiteness: validate_params().
+      p.clamp = (float)value.cast<double>();
     } else if (key == "seed") {
       if (py::isinstance<py::bool_>(value) || !py::isinstance<py::int_>(value))
         throw py::type_error("seed: expected an integer");
@@ -245,7 +272,7 @@ render_options read_render_options(const py::kwargs& kwargs) {
       p.sampler =
           read_enum_option<sampler_type>(key, value, sampler_type_names);
     } else if (key == "stmaxiter") {
-      p.march.max_iterations = read_int_option(key, value, 1, 1000000);
+      p.march.max_iterations = read_int_option(key, value);
     } else if (key == "accel") {
       p.accel = read_enum_option<accel_type>(key, value, accel_type_names);
     } else if (key == "threads") {
@@ -281,59 +308,6 @@ py::dict default_render_options() {
 }
 
 // -----------------------------------------------------------------------------
-// PREPARE RENDER: COPIED POLICY
-// -----------------------------------------------------------------------------
-
-// Everything a render needs besides its state. Holds the scene alive: the
-// accel points into it.
-struct prepared_render {
-  std::shared_ptr<py_scene> scene   = {};
-  accel_data                accel   = {};
-  lights_data               lights  = {};
-  trace_params              params  = {};
-  int                       threads = 0;
-};
-
-// COPIED FROM apps/ypathtrace/ypathtrace.cpp run() until the library has a
-// render context that owns this policy (STYLE.md: no policy in front ends):
-// a scene without a camera gets one framing its bounds, the camera is found
-// by name as Yocto/GL does, and a lit shader on a scene without any emitter
-// falls back to eyelight with a warning. Delete this when the render context
-// lands and call it instead.
-//
-// The missing camera is added to the shared scene with the GIL held, so two
-// renders of one scene never add it twice; it is the only change to the
-// scene, and no render can be tracing a scene that has no camera.
-std::unique_ptr<prepared_render> prepare_render(
-    const std::shared_ptr<py_scene>& scene, const render_options& options) {
-  auto render     = std::make_unique<prepared_render>();
-  render->scene   = scene;
-  render->params  = options.params;
-  render->threads = options.threads;
-  auto& params    = render->params;
-  {
-    py::gil_scoped_release release;
-    render->accel = make_accel(scene->scene, params.accel, params.march);
-  }
-  add_missing_camera(scene->scene, render->accel.bounds);
-  params.camera = find_camera(scene->scene, options.camera);
-  {
-    py::gil_scoped_release release;
-    render->lights = make_lights(scene->scene, render->accel);
-  }
-  auto has_emitters = !render->lights.lights.empty();
-  for (auto& object : render->accel.objects)
-    if (object.material >= 0 &&
-        max(scene->scene.materials[object.material].emission) > 0)
-      has_emitters = true;
-  if (is_lit_shader(params.shader) && !has_emitters) {
-    warn_all({"the scene has no lights; rendering with the eyelight shader"});
-    params.shader = shader_type::eyelight;
-  }
-  return render;
-}
-
-// -----------------------------------------------------------------------------
 // RENDER LOOP
 // -----------------------------------------------------------------------------
 
@@ -341,38 +315,46 @@ std::unique_ptr<prepared_render> prepare_render(
 // progress.
 constexpr auto poll_interval = std::chrono::milliseconds(20);
 
-// Add `passes` samples per pixel to `state`. The passes run on a worker
-// thread (in a TBB arena of `threads` threads, 0 for all) while this thread,
-// without the GIL, wakes every poll_interval to run Python's signal handlers
-// and call `progress(done + samples_before, samples_total)` when the count
-// changed. An exception from either (KeyboardInterrupt from Ctrl-C, or one
-// raised by the callback) cancels the render before its next 16x16 tile and
-// is raised here; the state then holds a partial pass.
-void trace_passes(const prepared_render& render, trace_state& state, int passes,
-    const py::object& progress, int samples_before, int samples_total) {
-  auto  mutex    = std::mutex{};
-  auto  finished = std::condition_variable{};
-  auto  done     = false;
-  auto  passed   = std::atomic<int>{0};
-  auto  cancel   = std::atomic<bool>{false};
-  auto  error    = std::exception_ptr{};
-  auto& scene    = render.scene->scene;
-  auto  arena    = tbb::task_arena(
-          render.threads > 0 ? render.threads : tbb::task_arena::automatic);
-  auto cancelled = [&] { return cancel.load(std::memory_order_relaxed); };
+// The render core's cancel callback: a flag the waiting thread sets.
+bool is_cancelled(void* user) {
+  return ((std::atomic<bool>*)user)->load(std::memory_order_relaxed);
+}
+
+// Add `samples` samples per pixel to `state`, one render_step() per sample
+// (so that a cancel takes effect within one tile of one sample; the core sums
+// samples in order, so the image is that of a single step). The steps run on
+// a worker thread, in a TBB arena of `threads` threads (0: all), while this
+// thread, without the GIL, wakes every poll_interval to run Python's signal
+// handlers and call `progress(done, total)` (samples per pixel) when the
+// count changed. An exception from either (KeyboardInterrupt from Ctrl-C, or
+// one raised by the callback) cancels the render before its next tile and is
+// raised here; the state then holds a partial pass.
+void render_samples(const render_context& context, render_state& state,
+    int samples, int threads, const py::object& progress) {
+  auto mutex     = std::mutex{};
+  auto finished  = std::condition_variable{};
+  auto done      = false;
+  auto error     = std::exception_ptr{};
+  auto cancel    = std::atomic<bool>{false};
+  auto count     = std::atomic<int>{state.samples};
+  auto total     = state.samples + samples;
+  auto callbacks = render_callbacks{nullptr, is_cancelled, &cancel};
+  auto arena =
+      tbb::task_arena(threads > 0 ? threads : tbb::task_arena::automatic);
 
   auto python_error = std::exception_ptr{};
   auto reported     = -1;
   // Deliver signals and progress; true when Python raised.
-  auto poll_python = [&](int count) {
+  auto poll_python = [&]() {
     if (PyErr_CheckSignals() != 0) {
       python_error = std::make_exception_ptr(py::error_already_set());
       return true;
     }
-    if (progress.is_none() || count == reported) return false;
-    reported = count;
+    auto current = count.load();
+    if (progress.is_none() || current == reported) return false;
+    reported = current;
     try {
-      progress(samples_before + count, samples_total);
+      progress(current, total);
     } catch (py::error_already_set&) {
       python_error = std::current_exception();
       return true;
@@ -385,11 +367,9 @@ void trace_passes(const prepared_render& render, trace_state& state, int passes,
     auto                   worker = std::thread([&] {
       try {
         arena.execute([&] {
-          for (auto pass = 0; pass < passes && !cancelled(); pass++) {
-            if (!trace_samples_until(state, scene, render.accel, render.lights,
-                                      render.params, cancelled))
-              break;
-            passed.fetch_add(1);
+          for (auto sample = 0; sample < samples; sample++) {
+            if (!render_step(context, state, 1, callbacks)) return;
+            count.store(state.samples);
           }
         });
       } catch (...) { error = std::current_exception(); }
@@ -409,7 +389,7 @@ void trace_passes(const prepared_render& render, trace_state& state, int passes,
       auto raised = false;
       {
         py::gil_scoped_acquire acquire;
-        raised = poll_python(passed.load());
+        raised = poll_python();
       }
       if (raised) {
         cancel.store(true);
@@ -423,36 +403,56 @@ void trace_passes(const prepared_render& render, trace_state& state, int passes,
   if (error) std::rethrow_exception(error);
 }
 
+// The context and resolved parameters of a render; the fallbacks (missing
+// camera, eyelight without lights) and the checks are the core's.
+struct py_render_setup {
+  std::shared_ptr<const render_context> context = {};
+  trace_params                          params  = {};
+  int                                   threads = 0;
+};
+
+py_render_setup setup_render(const py_scene& scene, const py::kwargs& kwargs) {
+  auto options  = read_render_options(kwargs);
+  auto setup    = py_render_setup{};
+  setup.threads = options.threads;
+  setup.context = context_for(scene, options.params);
+  auto warnings = std::vector<std::string>{};
+  setup.params =
+      resolve_params(*setup.context, options.params, options.camera, warnings);
+  warn_all(warnings);
+  return setup;
+}
+
 // Render a whole image.
 py::array_t<float> render_scene(const std::shared_ptr<py_scene>& scene,
     const py::object& progress, const py::kwargs& kwargs) {
   if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
     throw py::type_error("progress: expected a callable or None");
-  auto options = read_render_options(kwargs);
-  auto render  = prepare_render(scene, options);
-  auto state   = trace_state{};
+  auto setup = setup_render(*scene, kwargs);
+  auto state = render_state{};
   {
     py::gil_scoped_release release;
-    state = make_state(scene->scene, render->params);
+    state = make_render_state(*setup.context, setup.params);
   }
-  trace_passes(*render, state, render->params.samples, progress, 0,
-      render->params.samples);
-  return image_to_array(get_render(state));
+  render_samples(
+      *setup.context, state, setup.params.samples, setup.threads, progress);
+  return image_to_array(get_image(state));
 }
 
 // A progressive render: each step adds samples.
 struct py_renderer {
-  std::unique_ptr<prepared_render> render = {};
-  trace_state                      state  = {};
+  py_render_setup setup = {};
+  render_state    state = {};
   bool busy = false;  // a step is running (read and set with the GIL)
 };
 
 std::unique_ptr<py_renderer> make_renderer(
     const std::shared_ptr<py_scene>& scene, const py::kwargs& kwargs) {
-  auto renderer    = std::make_unique<py_renderer>();
-  renderer->render = prepare_render(scene, read_render_options(kwargs));
+  auto renderer   = std::make_unique<py_renderer>();
+  renderer->setup = setup_render(*scene, kwargs);
   py::gil_scoped_release release;
-  renderer->state = make_state(scene->scene, renderer->render->params);
+  renderer->state =
+      make_render_state(*renderer->setup.context, renderer->setup.params);
   return renderer;
 }
 
@@ -471,8 +471,8 @@ void step_renderer(
   renderer.busy = true;
   auto backup   = renderer.state;
   try {
-    trace_passes(*renderer.render, renderer.state, count, progress,
-        backup.samples, backup.samples + count);
+    render_samples(*renderer.setup.context, renderer.state, count,
+        renderer.setup.threads, progress);
   } catch (...) {
     renderer.state = std::move(backup);
     renderer.busy  = false;
@@ -631,15 +631,18 @@ PYBIND11_MODULE(_implicit, m) {
       .def_property_readonly("cameras",
           [](const py_scene& s) {
             auto names = std::vector<std::string>{};
-            for (auto& camera : s.scene.cameras) names.push_back(camera.name);
+            for (auto& camera : s.context->scene.cameras)
+              names.push_back(camera.name);
             return names;
           })
       .def_property_readonly("num_sdfunctions",
-          [](const py_scene& s) { return s.scene.sdfunctions.size(); })
+          [](const py_scene& s) { return s.context->scene.sdfunctions.size(); })
       .def_property_readonly("num_vol_instances",
-          [](const py_scene& s) { return s.scene.vol_instances.size(); })
+          [](const py_scene& s) {
+            return s.context->scene.vol_instances.size();
+          })
       .def_property_readonly("num_materials",
-          [](const py_scene& s) { return s.scene.materials.size(); });
+          [](const py_scene& s) { return s.context->scene.materials.size(); });
 
   m.def("load_scene", &load_scene_file, py::arg("filename"));
   m.def("parse_scene", &parse_scene_text, py::arg("text"), py::arg("filename"));
@@ -663,13 +666,13 @@ PYBIND11_MODULE(_implicit, m) {
           "height", [](const py_renderer& r) { return r.state.height; })
       .def_property_readonly("shader",
           [](const py_renderer& r) {
-            return shader_type_names[(int)r.render->params.shader];
+            return shader_type_names[(int)r.state.params.shader];
           })
       .def("image", [](const py_renderer& r) {
         if (r.busy)
           throw std::runtime_error(
               "image: the renderer is rendering (in another thread)");
-        return image_to_array(get_render(r.state));
+        return image_to_array(get_image(r.state));
       });
 
   m.def(
