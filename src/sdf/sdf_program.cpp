@@ -412,9 +412,21 @@ float primitive_lipschitz(const sdf_node& node) {
 }
 
 // One forward pass over the nodes (operands come first), no recursion.
+//
+// A smooth union lies below the minimum of its operands by at most
+// depth = k h^2 / 4 (h = max(k - |a - b|, 0) / k), so its box is the merged
+// boxes of its operands grown by that. Nested smooth unions keep the merged
+// box unexpanded (`cores`) and the depth: if the operands lie at most d_a
+// and d_b below the minimum m of their own operands, the smooth minimum,
+// monotone in each operand, is at least smooth_min(m - d_a, m - d_b), which
+// lies below m by max(d_a, d_b) + k h^2 / 4 with h from |d_a - d_b|. Along
+// the left-folded chains that `operands` lists make (d_b = 0), the depth
+// converges to k instead of growing by k/4 per operand.
 bbox3f sdf_bounds(const sdf_program& program) {
   if (program.nodes.empty()) return {};
   auto bounds = std::vector<bbox3f>(program.nodes.size());
+  auto cores  = std::vector<bbox3f>(program.nodes.size());
+  auto depths = std::vector<float>(program.nodes.size(), 0);
   for (auto i = 0; i < (int)program.nodes.size(); i++) {
     auto& node = program.nodes[i];
     auto  left = [&] { return bounds[node.left]; };
@@ -430,9 +442,16 @@ bbox3f sdf_bounds(const sdf_program& program) {
       // The smooth minimum lies at most blend/4 below the minimum, so a
       // smooth union grows by that much; the smooth maximum is never below
       // the maximum, so smooth intersections and subtractions do not grow.
-      case sdf_type::op_smooth_union:
-        box = expand(both(), node.blend * 0.25f);
+      case sdf_type::op_smooth_union: {
+        auto core = [&](int k) { return depths[k] > 0 ? cores[k] : bounds[k]; };
+        auto da = depths[node.left], db = depths[node.right];
+        auto k    = std::max(node.blend, 0.0f);
+        auto h    = k > 0 ? std::max(k - std::abs(da - db), 0.0f) / k : 0.0f;
+        cores[i]  = merge(core(node.left), core(node.right));
+        depths[i] = std::max(da, db) + k * h * h * 0.25f;
+        box       = expand(cores[i], depths[i]);
         break;
+      }
       case sdf_type::op_smooth_intersection: box = meet(); break;
       case sdf_type::op_smooth_subtraction: box = left(); break;
       case sdf_type::op_round: box = expand(left(), node.radius); break;

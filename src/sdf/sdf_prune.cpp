@@ -69,21 +69,16 @@ namespace implicit {
 // and of the Lipschitz radius.
 static constexpr float interval_margin = 1e-4f;
 
-// Most that a smooth minimum of blend k lies below the minimum (or a smooth
-// maximum above the maximum) for operands in [lo_a, hi_a] and [lo_b, hi_b]:
-// k h^2 / 4 with h = max(k - gap, 0) / k, the gap between the intervals
-// being the least |a - b|.
-static float blend_depth(
-    float lo_a, float hi_a, float lo_b, float hi_b, float k) {
-  if (k <= 0) return 0;
-  auto gap = std::max(std::max(lo_a - hi_b, lo_b - hi_a), 0.0f);
-  auto h   = std::max(k - gap, 0.0f) / k;
-  return k * h * h * 0.25f;
+sdf_program prune_sdf(const sdf_program& program, const bbox3f& box) {
+  auto range = vec2f{};
+  return prune_sdf(program, box, range);
 }
 
-sdf_program prune_sdf(const sdf_program& program, const bbox3f& box) {
+sdf_program prune_sdf(
+    const sdf_program& program, const bbox3f& box, vec2f& range) {
   auto& nodes = program.nodes;
   auto  n     = (int)nodes.size();
+  range       = {-flt_inf, flt_inf};
   if (n == 0) return program;
   // Spaces, top-down, as in make_sdf_tape(): the centre and the ball radius
   // in each transform's space.
@@ -96,9 +91,13 @@ sdf_program prune_sdf(const sdf_program& program, const bbox3f& box) {
     auto& node  = nodes[i];
     auto  inner = space[i];
     if (node.type == sdf_type::op_transform) {
+      // The composed map stretches at most by the product of the stretches,
+      // 1 / frame_scale each (no power iteration per cell).
       auto& frame = program.frames[node.frame];
+      auto  scale = program.frame_scales[node.frame];
+      auto  outer = inner < 0 ? 1.0f : stretch[inner];
       frames.push_back(inner < 0 ? frame : frame * frames[inner]);
-      stretch.push_back(max_stretch(frames.back()));
+      stretch.push_back(scale > 0 ? outer / scale : flt_inf);
       inner = (int)frames.size() - 1;
     }
     if (node.left >= 0) space[node.left] = inner;
@@ -144,23 +143,21 @@ sdf_program prune_sdf(const sdf_program& program, const bbox3f& box) {
         lo[i] = std::max(lo[l], -hi[r]);
         hi[i] = std::max(hi[l], -lo[r]);
         break;
-      // The smooth minimum lies in [min - k h^2 / 4, min], the maximum in
-      // [max, max + k h^2 / 4], with h = max(k - |a - b|, 0) / k at most
-      // what the gap between the operands' intervals allows.
+      // The smooth minimum and maximum are monotone in each operand
+      // (their partial derivatives are h/2 and 1 - h/2, both in [0, 1]), so
+      // their values over the box lie between their values at the ends of
+      // the operands' intervals.
       case sdf_type::op_smooth_union:
-        lo[i] =
-            std::min(lo[l], lo[r]) - blend_depth(lo[l], hi[l], lo[r], hi[r], k);
-        hi[i] = std::min(hi[l], hi[r]);
+        lo[i] = smooth_min(lo[l], lo[r], k);
+        hi[i] = smooth_min(hi[l], hi[r], k);
         break;
       case sdf_type::op_smooth_intersection:
-        lo[i] = std::max(lo[l], lo[r]);
-        hi[i] =
-            std::max(hi[l], hi[r]) + blend_depth(lo[l], hi[l], lo[r], hi[r], k);
+        lo[i] = smooth_max(lo[l], lo[r], k);
+        hi[i] = smooth_max(hi[l], hi[r], k);
         break;
       case sdf_type::op_smooth_subtraction:
-        lo[i] = std::max(lo[l], -hi[r]);
-        hi[i] = std::max(hi[l], -lo[r]) +
-                blend_depth(lo[l], hi[l], -hi[r], -lo[r], k);
+        lo[i] = smooth_max(lo[l], -hi[r], k);
+        hi[i] = smooth_max(hi[l], -lo[r], k);
         break;
       case sdf_type::op_round:
         lo[i] = lo[l] - node.radius;
@@ -188,6 +185,8 @@ sdf_program prune_sdf(const sdf_program& program, const bbox3f& box) {
       }
     }
   }
+
+  range = {lo[n - 1], hi[n - 1]};
 
   // Caps, floors and dropped operands, top-down (see the proof above).
   auto cap       = std::vector<float>(n, flt_inf);
@@ -465,12 +464,18 @@ static bbox3f octant_box(const bbox3f& box, int octant) {
 }
 
 // Octree depth for a program of `count` nodes: about cbrt(count / 4) cells
-// per axis (a few operands per leaf), one level more for the blends that
-// straddle cells, at most 8 (16.7 million cells).
+// per axis (a few operands per leaf), two levels more for the blends and
+// the Lipschitz balls that straddle cells (cells near the surface only are
+// split that far: the others prune to a few nodes and stop), at most 9.
 static int field_depth(size_t count) {
   auto cells = std::cbrt(std::max(1.0, (double)count / 4));
-  return std::clamp((int)std::ceil(std::log2(cells)) + 1, 1, 8);
+  return std::clamp((int)std::ceil(std::log2(cells)) + 2, 1, 9);
 }
+
+// Default budget of stored nodes: 64 per node of the program, at least 2^21
+// (about 120 MiB of tapes) and at most 2^23 (about 500 MiB).
+static constexpr size_t field_min_nodes = size_t{1} << 21;
+static constexpr size_t field_max_nodes = size_t{1} << 23;
 
 sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
     const sdf_field_params& params) {
@@ -479,52 +484,77 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
   auto count = program.nodes.size();
   if ((int)count <= params.leaf_nodes || is_empty(box) || !is_finite(box))
     return field;
-  field.box = box;
+  // Cubic cells (a flat object would get flat cells, split for nothing
+  // along its thin axis): the root is the box grown to a cube.
+  auto half = max(box.max - box.min) * 0.5f;
+  field.box = {center(box) - half, center(box) + half};
   auto max_depth =
       params.max_depth >= 0 ? params.max_depth : field_depth(count);
-  auto max_nodes = params.max_nodes > 0 ? params.max_nodes : 64 * count;
-  auto stored    = size_t{0};
-  // Depth-first with an explicit stack; the 8 children of a cell share their
-  // parent's pruned program, which lives until the last of them is built.
+  auto max_nodes = params.max_nodes > 0 ? params.max_nodes
+                                        : std::clamp(count * 64,
+                                              field_min_nodes, field_max_nodes);
+  // Level by level, so that a budget cut leaves every region equally fine;
+  // the 8 children of a cell share their parent's pruned program, which
+  // lives until the level below is built.
   struct pending {
     int                                cell    = 0;
     bbox3f                             box     = {};
-    int                                depth   = 0;
     std::shared_ptr<const sdf_program> program = nullptr;
   };
-  auto stack = std::vector<pending>{
-      {0, box, 0, std::make_shared<const sdf_program>(program)}};
+  auto level = std::vector<pending>{
+      {0, field.box, std::make_shared<const sdf_program>(program)}};
+  auto stored = size_t{0};  // nodes of the leaves and of the level's programs
   field.cells.push_back({});
-  while (!stack.empty()) {
-    auto item = std::move(stack.back());
-    stack.pop_back();
-    auto pruned = prune_sdf(*item.program, item.box);
-    auto size   = pruned.nodes.size();
-    field.depth = std::max(field.depth, item.depth);
-    // A leaf when small enough, deep enough, over budget, or when pruning
-    // stopped paying (past the first levels, where cells hold everything).
-    auto leaf = (int)size <= params.leaf_nodes || item.depth >= max_depth ||
-                stored >= max_nodes ||
-                (item.depth >= 2 && size * 10 > item.program->nodes.size() * 9);
-    if (leaf) {
-      field.cells[item.cell].tape = (int)field.tapes.size();
-      field.tapes.push_back(make_sdf_tape(pruned));
-      stored += size;
-      continue;
+  for (auto depth = 0; !level.empty(); depth++) {
+    field.depth = depth;
+    auto next   = std::vector<pending>{};
+    // Prune the whole level first: its programs' sizes decide whether the
+    // level below fits the budget.
+    auto pruned = std::vector<sdf_program>(level.size());
+    auto ranges = std::vector<vec2f>(level.size());
+    for (size_t k = 0; k < level.size(); k++)
+      pruned[k] = prune_sdf(*level[k].program, level[k].box, ranges[k]);
+    // The level becomes leaves when it is the deepest, or when its
+    // programs would not fit the budget (the levels above are transient).
+    auto level_nodes = size_t{0};
+    for (auto& p : pruned) level_nodes += p.nodes.size();
+    auto last = depth >= max_depth || stored + level_nodes > max_nodes;
+    for (size_t k = 0; k < level.size(); k++) {
+      auto& item = level[k];
+      auto  size = pruned[k].nodes.size();
+      // Far from the surface: a constant bound (see sdf_cell).
+      auto far = length(item.box.max - item.box.min) * 0.25f;
+      if (ranges[k].x >= far || ranges[k].y <= -far) {
+        field.cells[item.cell].bound =
+            ranges[k].x > 0 ? ranges[k].x : ranges[k].y;
+        continue;
+      }
+      // A leaf when small enough, at the last level, or when pruning stopped
+      // working (a chain of roundings has nothing to drop: its cells would
+      // multiply copies of it).
+      auto leaf = last || (int)size <= params.leaf_nodes ||
+                  (depth >= 3 && size >= item.program->nodes.size());
+      if (leaf) {
+        field.cells[item.cell].tape = (int)field.tapes.size();
+        field.tapes.push_back(make_sdf_tape(pruned[k]));
+        stored += size;
+        continue;
+      }
+      auto children                   = (int)field.cells.size();
+      field.cells[item.cell].children = children;
+      field.cells.resize(field.cells.size() + 8);
+      auto shared = std::make_shared<const sdf_program>(std::move(pruned[k]));
+      for (auto octant = 0; octant < 8; octant++)
+        next.push_back(
+            {children + octant, octant_box(item.box, octant), shared});
     }
-    auto children                   = (int)field.cells.size();
-    field.cells[item.cell].children = children;
-    field.cells.resize(field.cells.size() + 8);
-    auto shared = std::make_shared<const sdf_program>(std::move(pruned));
-    for (auto octant = 7; octant >= 0; octant--)
-      stack.push_back({children + octant, octant_box(item.box, octant),
-          item.depth + 1, shared});
+    level = std::move(next);
   }
   return field;
 }
 
-const sdf_tape& find_sdf_tape(const sdf_field& field, vec3f p) {
-  if (field.cells.empty() || !inside(field.box, p)) return field.full;
+int find_sdf_cell(const sdf_field& field, vec3f p) {
+  if (field.cells.empty() || !inside(field.box, p)) return invalidid;
   auto cell = 0;
   auto box  = field.box;
   while (field.cells[cell].children >= 0) {
@@ -534,12 +564,19 @@ const sdf_tape& find_sdf_tape(const sdf_field& field, vec3f p) {
     box  = octant_box(box, octant);
     cell = field.cells[cell].children + octant;
   }
+  return cell;
+}
+
+const sdf_tape& find_sdf_tape(const sdf_field& field, vec3f p) {
+  auto cell = find_sdf_cell(field, p);
+  if (cell < 0 || field.cells[cell].tape < 0) return field.full;
   return field.tapes[field.cells[cell].tape];
 }
 
 vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step) {
   auto& tape = find_sdf_tape(field, p);
-  if (tape.instrs.size() == 1) return eval_sdf_gradient(tape, p, step);
+  if (tape.instrs.size() == 1 && tape.instrs[0].space == invalidid)
+    return eval_sdf_gradient(tape, p, step);
   return normalize(tetrahedral_gradient(
       [&](vec3f q) { return eval_sdf(field, q); }, p, step));
 }

@@ -37,6 +37,9 @@ namespace implicit {
 // box (up to float rounding), without the operands that cannot change its
 // value there, and with chains of transforms merged into one.
 sdf_program prune_sdf(const sdf_program& program, const bbox3f& box);
+// As above; `range` receives bounds of the program's values over the box.
+sdf_program prune_sdf(
+    const sdf_program& program, const bbox3f& box, vec2f& range);
 
 // The operands of the hard union at the root of `program`, through
 // transforms and nested hard unions, each as its own program in the
@@ -53,13 +56,22 @@ std::vector<sdf_program> split_sdf_union(const sdf_program& program);
 struct sdf_field_params {
   int    leaf_nodes = 24;  // a cell with at most this many nodes is a leaf
   int    max_depth  = -1;  // octree levels; -1: about cbrt(nodes) cells/axis
-  size_t max_nodes  = 0;   // nodes stored in all leaves; 0: 64 x the program
+  size_t max_nodes  = 0;   // nodes stored in all leaves; 0: see make_sdf_field
 };
 
-// One octree cell: eight children from `children`, or a leaf with a tape.
+// One octree cell: eight children from `children`, or a leaf with a tape,
+// or a leaf with a constant bound: a cell where the field keeps one sign and
+// stays at least half the cell's half diagonal from zero answers with its
+// least distance (`bound`, the lower end of its range outside the surface,
+// the upper end inside). That is no exact value, but it is a distance bound
+// of the same sign, no larger in size than the field's, so sphere tracing
+// stays safe: its steps stay short of the surface, and no hit or normal is
+// ever taken there (every point of the cell is farther from the surface
+// than the hit threshold and the normals' finite-difference steps).
 struct sdf_cell {
-  int children = invalidid;  // index of the first of 8 in sdf_field::cells
-  int tape     = invalidid;  // leaves: index in sdf_field::tapes
+  int   children = invalidid;  // index of the first of 8 in sdf_field::cells
+  int   tape     = invalidid;  // leaves: index in sdf_field::tapes
+  float bound    = 0;          // leaves without a tape: the constant bound
 };
 
 // A program with its pruned versions over an octree of `box`. Points outside
@@ -78,12 +90,21 @@ struct sdf_field {
 sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
     const sdf_field_params& params = {});
 
-// The tape that evaluates `p` exactly: its leaf's, or the whole program's.
+// The leaf cell that holds `p`, or invalidid outside the octree.
+int find_sdf_cell(const sdf_field& field, vec3f p);
+
+// The tape that evaluates `p` exactly: its leaf's, or the whole program's
+// outside the octree and in constant cells.
 const sdf_tape& find_sdf_tape(const sdf_field& field, vec3f p);
 
-// Distance at a local point (allocates nothing).
+// Distance bound at a local point: exact near the surface, see sdf_cell
+// (allocates nothing).
 inline float eval_sdf(const sdf_field& field, vec3f p) {
-  return eval_sdf(find_sdf_tape(field, p), p);
+  auto cell = find_sdf_cell(field, p);
+  if (cell < 0) return eval_sdf(field.full, p);
+  auto& leaf = field.cells[cell];
+  if (leaf.tape < 0) return leaf.bound;
+  return eval_sdf(field.tapes[leaf.tape], p);
 }
 
 // Unit gradient at a local point; each finite-difference sample uses the

@@ -238,7 +238,7 @@ TEST_CASE("sdf prune: pruned programs equal the whole one in every cell") {
           sdf_type::op_intersection, sdf_type::op_smooth_subtraction,
           sdf_type::op_smooth_intersection},
   };
-  auto models = 0, smaller = 0;
+  auto models = 0, smaller = 0, constant = 0;
   for (auto trial = 0; trial < 28; trial++) {
     auto& types       = kinds[trial % kinds.size()];
     auto  count       = 40 + trial * 10;
@@ -253,6 +253,18 @@ TEST_CASE("sdf prune: pruned programs equal the whole one in every cell") {
     models++;
     auto leaves = leaf_cells(field);
     for (auto& [cell, index] : leaves) {
+      if (index < 0) {
+        // A constant cell: a bound of the field's sign, no larger in size.
+        for (auto k = 0; k < 8; k++) {
+          auto p = cell.min + (cell.max - cell.min) * uniform3(rng, 0, 1);
+          auto expected = eval_sdf(tape, p), bound = eval_sdf(field, p);
+          CHECK(bound * expected > 0);
+          CHECK(std::abs(bound) <= std::abs(expected) + 1e-5f);
+          CHECK(std::abs(bound) >= length(cell.max - cell.min) * 0.25f);
+        }
+        constant++;
+        continue;
+      }
       auto& pruned = field.tapes[index];
       if (pruned.instrs.size() < tape.instrs.size()) smaller++;
       for (auto k = 0; k < 8; k++) {
@@ -268,6 +280,7 @@ TEST_CASE("sdf prune: pruned programs equal the whole one in every cell") {
   }
   CHECK(models == 28);
   CHECK(smaller > 0);
+  CHECK(constant > 0);
 }
 
 TEST_CASE("sdf prune: hard and smooth unions shrink to the near operands") {
