@@ -11,7 +11,7 @@
 // machine count little.
 //
 // Usage: bench_large [--resolution N] [--counts 100,1000,...]
-//                    [--reference-count N]
+//                    [--reference-count N] [--models hard_union,...]
 
 #include <tbb/global_control.h>
 
@@ -98,11 +98,14 @@ int main(int argc, char** argv) {
   auto resolution      = 48;
   auto counts          = std::vector<int>{100, 1000, 10000, 100000};
   auto reference_count = 1000;
+  auto models          = std::string{"hard_union,smooth_union,perforated_slab"};
   for (auto i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--resolution")) {
       resolution = std::atoi(argv[i + 1]);
     } else if (!std::strcmp(argv[i], "--counts")) {
       counts = parse_counts(argv[i + 1]);
+    } else if (!std::strcmp(argv[i], "--models")) {
+      models = argv[i + 1];
     } else if (!std::strcmp(argv[i], "--reference-count")) {
       reference_count = std::atoi(argv[i + 1]);
     } else {
@@ -120,6 +123,8 @@ int main(int argc, char** argv) {
   std::printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   for (auto type : {sdf_model_type::hard_union, sdf_model_type::smooth_union,
            sdf_model_type::perforated_slab}) {
+    if (models.find(sdf_model_type_names[(int)type]) == std::string::npos)
+      continue;
     auto first = 0.0;
     for (auto count : counts) {
       auto scene        = make_scene(type, count);

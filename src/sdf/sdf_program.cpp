@@ -168,8 +168,12 @@ sdf_tape make_sdf_tape(const sdf_program& program) {
     instr.node    = node;
     instr.space   = space[index];
     instr.swapped = swapped;
-    if (node.type == sdf_type::op_transform)
+    if (node.type == sdf_type::op_transform) {
+      // Its map is in the spaces of the primitives below; only a distance
+      // factor other than 1 (a scaling map) is left to apply.
       instr.scale = program.frame_scales[node.frame];
+      if (instr.scale == 1) continue;
+    }
     tape.instrs.push_back(instr);
   }
   return tape;

@@ -32,16 +32,17 @@
 //   So a may get cap hi_b + k (no floor: values of a below it all matter):
 //   it is dropped when lo_a >= hi_b + k, i.e. when it lies farther than the
 //   blend radius above every value of the other operand. It may also get
-//   cap cap_n + 5k/4: where a >= cap_n + 5k/4, either b < cap_n + k/4, so
-//   a and any g >= cap_n + 5k/4 lie more than k above b and both smooth
-//   minima are b; or b >= cap_n + k/4, and both smooth minima are at least
-//   min - k/4 >= cap_n. a gets the smaller of the two caps.
+//   cap cap_n + k: where a >= cap_n + k, either b <= cap_n, so a and any
+//   g >= cap_n + k lie at least k above b and both smooth minima are b; or
+//   b > cap_n, and both smooth minima are at least smooth_min(cap_n + k,
+//   cap_n) = cap_n (the smooth minimum is monotone in each operand: its
+//   partial derivatives are h/2 and 1 - h/2). a gets the smaller cap.
 // - smooth_max(a, b, k) = -smooth_min(-a, -b, k): a gets floor
-//   max(lo_b - k, floor_n - 5k/4) and is dropped when its hi is below it.
+//   max(lo_b - k, floor_n - k) and is dropped when its hi is below it.
 //   Smooth subtraction smooth_max(a, -b, k): a gets floor
-//   max(-hi_b - k, floor_n - 5k/4); -b gets floor max(lo_a - k,
-//   floor_n - 5k/4), so b gets the negated cap, and b is dropped when
-//   -lo_b is below that floor.
+//   max(-hi_b - k, floor_n - k); -b gets floor max(lo_a - k, floor_n - k),
+//   so b gets the negated cap, and b is dropped when -lo_b is below that
+//   floor.
 // - round (a - r): cap and floor move by r. transform (s a, s > 0): they are
 //   divided by s. onion (|a| - t) is not monotone: its operand gets none.
 //
@@ -250,7 +251,7 @@ sdf_program prune_sdf(
         }
         break;
       case sdf_type::op_smooth_union: {
-        auto reach = cap[i] + 1.25f * k;  // see the proof above
+        auto reach = cap[i] + k;  // see the proof above
         if (lo[l] >= std::min(hi[r] + k, reach)) {
           become(r);
         } else if (lo[r] >= std::min(hi[l] + k, reach)) {
@@ -262,7 +263,7 @@ sdf_program prune_sdf(
         break;
       }
       case sdf_type::op_smooth_intersection: {
-        auto reach = floor[i] - 1.25f * k;
+        auto reach = floor[i] - k;
         if (hi[l] <= std::max(lo[r] - k, reach)) {
           become(r);
         } else if (hi[r] <= std::max(lo[l] - k, reach)) {
@@ -274,7 +275,7 @@ sdf_program prune_sdf(
         break;
       }
       case sdf_type::op_smooth_subtraction: {
-        auto reach = floor[i] - 1.25f * k;
+        auto reach = floor[i] - k;
         if (-lo[r] <= std::max(lo[l] - k, reach)) {
           become(l);
         } else {
@@ -463,25 +464,84 @@ static bbox3f octant_box(const bbox3f& box, int octant) {
   return b;
 }
 
-// Octree depth for a program of `count` nodes: about cbrt(count / 4) cells
-// per axis (a few operands per leaf), two levels more for the blends and
-// the Lipschitz balls that straddle cells (cells near the surface only are
-// split that far: the others prune to a few nodes and stop), at most 9.
-static int field_depth(size_t count) {
-  auto cells = std::cbrt(std::max(1.0, (double)count / 4));
-  return std::clamp((int)std::ceil(std::log2(cells)) + 2, 1, 9);
+// Octree depth for a program with `leaves` primitives: about one cell per
+// primitive, cbrt(leaves) per axis (cells near the surface only are split
+// that far: the others prune to a few nodes, or a constant, and stop), plus
+// `extra` levels, at most 9.
+static int field_depth(size_t leaves, int extra) {
+  auto cells = std::cbrt(std::max(1.0, (double)leaves));
+  return std::clamp((int)std::ceil(std::log2(cells)) + extra, 1, 9);
 }
 
-// Default budget of stored nodes: 64 per node of the program, at least 2^21
-// (about 120 MiB of tapes) and at most 2^23 (about 500 MiB).
-static constexpr size_t field_min_nodes = size_t{1} << 21;
-static constexpr size_t field_max_nodes = size_t{1} << 23;
+// Build the octree of `field` down to `max_depth`; false (and a partial
+// octree) when the leaf tapes would take more than `max_bytes`.
+static bool build_octree(sdf_field& field, const sdf_program& program,
+    const sdf_field_params& params, int max_depth, size_t max_bytes) {
+  field.cells.clear();
+  field.tapes.clear();
+  field.depth = 0;
+  // Depth first with an explicit stack, so that only the programs along one
+  // path (8 per level) are held at a time; the 8 children of a cell share
+  // their parent's pruned program.
+  struct pending {
+    int                                cell    = 0;
+    bbox3f                             box     = {};
+    int                                depth   = 0;
+    std::shared_ptr<const sdf_program> program = nullptr;
+  };
+  auto stack = std::vector<pending>{
+      {0, field.box, 0, std::make_shared<const sdf_program>(program)}};
+  auto stored = size_t{0};  // bytes of the leaf tapes
+  field.cells.push_back({});
+  while (!stack.empty()) {
+    auto item = std::move(stack.back());
+    stack.pop_back();
+    auto range  = vec2f{};
+    auto pruned = prune_sdf(*item.program, item.box, range);
+    auto size   = pruned.nodes.size();
+    field.depth = std::max(field.depth, item.depth);
+    // Far from the surface: a constant bound (see sdf_cell).
+    auto far = length(item.box.max - item.box.min) * 0.25f;
+    if (range.x >= far || range.y <= -far) {
+      field.cells[item.cell].bound = range.x > 0 ? range.x : range.y;
+      continue;
+    }
+    // A leaf when small enough, deep enough, over budget, or when pruning
+    // stopped working (a chain of roundings has nothing to drop: its cells
+    // would multiply copies of it).
+    auto leaf = (int)size <= params.leaf_nodes || item.depth >= max_depth ||
+                (item.depth >= 3 && size >= item.program->nodes.size());
+    if (leaf) {
+      field.cells[item.cell].tape = (int)field.tapes.size();
+      field.tapes.push_back(make_sdf_tape(pruned));
+      stored += sdf_tape_bytes(field.tapes.back());
+      if (stored > max_bytes) return false;
+      continue;
+    }
+    auto children                   = (int)field.cells.size();
+    field.cells[item.cell].children = children;
+    field.cells.resize(field.cells.size() + 8);
+    auto shared = std::make_shared<const sdf_program>(std::move(pruned));
+    for (auto octant = 7; octant >= 0; octant--)
+      stack.push_back({children + octant, octant_box(item.box, octant),
+          item.depth + 1, shared});
+  }
+  return true;
+}
+
+// Default budget of the leaf tapes: 16 KiB per node of the program, at
+// least 256 MiB and at most 1 GiB. Over budget, the octree is rebuilt one
+// level shallower.
+static constexpr size_t field_min_bytes = size_t{256} << 20;
+static constexpr size_t field_max_bytes = size_t{1} << 30;
 
 sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
     const sdf_field_params& params) {
-  auto field = sdf_field{};
-  field.full = make_sdf_tape(program);
-  auto count = program.nodes.size();
+  auto field      = sdf_field{};
+  field.full      = make_sdf_tape(program);
+  auto count      = program.nodes.size();
+  auto primitives = size_t{0};
+  for (auto& node : program.nodes) primitives += is_primitive(node.type);
   if ((int)count <= params.leaf_nodes || is_empty(box) || !is_finite(box))
     return field;
   // Cubic cells (a flat object would get flat cells, split for nothing
@@ -489,67 +549,14 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
   auto half = max(box.max - box.min) * 0.5f;
   field.box = {center(box) - half, center(box) + half};
   auto max_depth =
-      params.max_depth >= 0 ? params.max_depth : field_depth(count);
-  auto max_nodes = params.max_nodes > 0 ? params.max_nodes
-                                        : std::clamp(count * 64,
-                                              field_min_nodes, field_max_nodes);
-  // Level by level, so that a budget cut leaves every region equally fine;
-  // the 8 children of a cell share their parent's pruned program, which
-  // lives until the level below is built.
-  struct pending {
-    int                                cell    = 0;
-    bbox3f                             box     = {};
-    std::shared_ptr<const sdf_program> program = nullptr;
-  };
-  auto level = std::vector<pending>{
-      {0, field.box, std::make_shared<const sdf_program>(program)}};
-  auto stored = size_t{0};  // nodes of the leaves and of the level's programs
-  field.cells.push_back({});
-  for (auto depth = 0; !level.empty(); depth++) {
-    field.depth = depth;
-    auto next   = std::vector<pending>{};
-    // Prune the whole level first: its programs' sizes decide whether the
-    // level below fits the budget.
-    auto pruned = std::vector<sdf_program>(level.size());
-    auto ranges = std::vector<vec2f>(level.size());
-    for (size_t k = 0; k < level.size(); k++)
-      pruned[k] = prune_sdf(*level[k].program, level[k].box, ranges[k]);
-    // The level becomes leaves when it is the deepest, or when its
-    // programs would not fit the budget (the levels above are transient).
-    auto level_nodes = size_t{0};
-    for (auto& p : pruned) level_nodes += p.nodes.size();
-    auto last = depth >= max_depth || stored + level_nodes > max_nodes;
-    for (size_t k = 0; k < level.size(); k++) {
-      auto& item = level[k];
-      auto  size = pruned[k].nodes.size();
-      // Far from the surface: a constant bound (see sdf_cell).
-      auto far = length(item.box.max - item.box.min) * 0.25f;
-      if (ranges[k].x >= far || ranges[k].y <= -far) {
-        field.cells[item.cell].bound =
-            ranges[k].x > 0 ? ranges[k].x : ranges[k].y;
-        continue;
-      }
-      // A leaf when small enough, at the last level, or when pruning stopped
-      // working (a chain of roundings has nothing to drop: its cells would
-      // multiply copies of it).
-      auto leaf = last || (int)size <= params.leaf_nodes ||
-                  (depth >= 3 && size >= item.program->nodes.size());
-      if (leaf) {
-        field.cells[item.cell].tape = (int)field.tapes.size();
-        field.tapes.push_back(make_sdf_tape(pruned[k]));
-        stored += size;
-        continue;
-      }
-      auto children                   = (int)field.cells.size();
-      field.cells[item.cell].children = children;
-      field.cells.resize(field.cells.size() + 8);
-      auto shared = std::make_shared<const sdf_program>(std::move(pruned[k]));
-      for (auto octant = 0; octant < 8; octant++)
-        next.push_back(
-            {children + octant, octant_box(item.box, octant), shared});
-    }
-    level = std::move(next);
-  }
+      params.max_depth >= 0 ? params.max_depth : field_depth(primitives, 1);
+  auto max_bytes = params.max_bytes > 0 ? params.max_bytes
+                                        : std::clamp(count * 16384,
+                                              field_min_bytes, field_max_bytes);
+  // Over budget: one level less (uniformly coarser cells with larger
+  // programs beat a budget cut that leaves some cells unpruned).
+  for (auto depth = max_depth; depth >= 0; depth--)
+    if (build_octree(field, program, params, depth, max_bytes)) break;
   return field;
 }
 
@@ -587,14 +594,15 @@ size_t sdf_field_nodes(const sdf_field& field) {
   return count;
 }
 
+size_t sdf_tape_bytes(const sdf_tape& tape) {
+  return sizeof(tape) + tape.instrs.size() * sizeof(sdf_instr) +
+         tape.frames.size() * sizeof(frame3f);
+}
+
 size_t sdf_field_bytes(const sdf_field& field) {
-  auto bytes      = sizeof(field) + field.cells.size() * sizeof(sdf_cell);
-  auto tape_bytes = [](const sdf_tape& tape) {
-    return sizeof(tape) + tape.instrs.size() * sizeof(sdf_instr) +
-           tape.frames.size() * sizeof(frame3f);
-  };
-  bytes += tape_bytes(field.full);
-  for (auto& tape : field.tapes) bytes += tape_bytes(tape);
+  auto bytes = sizeof(field) + field.cells.size() * sizeof(sdf_cell) +
+               sdf_tape_bytes(field.full);
+  for (auto& tape : field.tapes) bytes += sdf_tape_bytes(tape);
   return bytes;
 }
 

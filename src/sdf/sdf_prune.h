@@ -56,7 +56,7 @@ std::vector<sdf_program> split_sdf_union(const sdf_program& program);
 struct sdf_field_params {
   int    leaf_nodes = 24;  // a cell with at most this many nodes is a leaf
   int    max_depth  = -1;  // octree levels; -1: about cbrt(nodes) cells/axis
-  size_t max_nodes  = 0;   // nodes stored in all leaves; 0: see make_sdf_field
+  size_t max_bytes  = 0;   // bytes of all leaf tapes; 0: see make_sdf_field
 };
 
 // One octree cell: eight children from `children`, or a leaf with a tape,
@@ -111,8 +111,9 @@ inline float eval_sdf(const sdf_field& field, vec3f p) {
 // tape of its own cell, so it is the gradient of the whole field.
 vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step);
 
-// Nodes in the leaf tapes, and bytes of the whole field.
+// Instructions in the leaf tapes, and bytes of a tape and of a whole field.
 size_t sdf_field_nodes(const sdf_field& field);
+size_t sdf_tape_bytes(const sdf_tape& tape);
 size_t sdf_field_bytes(const sdf_field& field);
 
 }  // namespace implicit
