@@ -109,6 +109,59 @@ static void check_tree(const sdf_program& program) {
   }
 }
 
+// Append the steps of `program` in evaluation order: operands before users,
+// the operand needing the larger stack first (Sethi-Ullman numbers), by a
+// post-order walk with an explicit stack. `node_of(i)` and `space_of(i)`
+// give node i's index in the pool and its space.
+template <typename NodeOf, typename SpaceOf>
+static void emit_instrs(const sdf_program& program, const NodeOf& node_of,
+    const SpaceOf& space_of, std::vector<sdf_instr>& instrs) {
+  auto  n     = (int)program.nodes.size();
+  auto& nodes = program.nodes;
+  auto  need  = std::vector<int>(n, 1);
+  for (auto i = 0; i < n; i++) {
+    auto& node = nodes[i];
+    switch (operand_count(node.type)) {
+      case 0: need[i] = 1; break;
+      case 1: need[i] = need[node.left]; break;
+      default: {
+        auto l = need[node.left], r = need[node.right];
+        need[i] = l == r ? l + 1 : std::max(l, r);
+      }
+    }
+  }
+  if (need[n - 1] > sdf_stack_size)
+    throw io_error("sdf program: needs a value stack of " +
+                   std::to_string(need[n - 1]) + " entries");
+  auto stack = std::vector<std::pair<int, bool>>{{n - 1, false}};
+  instrs.reserve(instrs.size() + n);
+  while (!stack.empty()) {
+    auto [index, expanded] = stack.back();
+    stack.pop_back();
+    auto& node    = nodes[index];
+    auto  count   = operand_count(node.type);
+    auto  swapped = count == 2 && need[node.right] > need[node.left];
+    if (!expanded && count > 0) {
+      stack.push_back({index, true});
+      if (count == 2)
+        stack.push_back({swapped ? node.left : node.right, false});
+      stack.push_back({swapped ? node.right : node.left, false});
+      continue;
+    }
+    auto instr    = sdf_instr{};
+    instr.node    = node_of(index);
+    instr.space   = space_of(index);
+    instr.swapped = swapped;
+    if (node.type == sdf_type::op_transform) {
+      // Its map is in the spaces of the primitives below; only a distance
+      // factor other than 1 (a scaling map) is left to apply.
+      instr.scale = program.frame_scales[node.frame];
+      if (instr.scale == 1) continue;
+    }
+    instrs.push_back(instr);
+  }
+}
+
 sdf_tape make_sdf_tape(const sdf_program& program) {
   auto tape = sdf_tape{};
   if (program.nodes.empty()) return tape;
@@ -131,52 +184,24 @@ sdf_tape make_sdf_tape(const sdf_program& program) {
     if (count >= 1) space[node.left] = inner;
     if (count >= 2) space[node.right] = inner;
   }
-  // Stack need of each subtree (Sethi-Ullman numbers), bottom-up.
-  auto need = std::vector<int>(n, 1);
-  for (auto i = 0; i < n; i++) {
-    auto& node = nodes[i];
-    switch (operand_count(node.type)) {
-      case 0: need[i] = 1; break;
-      case 1: need[i] = need[node.left]; break;
-      default: {
-        auto l = need[node.left], r = need[node.right];
-        need[i] = l == r ? l + 1 : std::max(l, r);
-      }
-    }
-  }
-  if (need[n - 1] > sdf_stack_size)
-    throw io_error("sdf program: needs a value stack of " +
-                   std::to_string(need[n - 1]) + " entries");
-  // Post-order walk with an explicit stack: (node, operands pushed).
-  auto stack = std::vector<std::pair<int, bool>>{{n - 1, false}};
-  tape.instrs.reserve(n);
-  while (!stack.empty()) {
-    auto [index, expanded] = stack.back();
-    stack.pop_back();
-    auto& node  = nodes[index];
-    auto  count = operand_count(node.type);
-    // The deeper operand first keeps the stack small.
-    auto swapped = count == 2 && need[node.right] > need[node.left];
-    if (!expanded && count > 0) {
-      stack.push_back({index, true});
-      if (count == 2)
-        stack.push_back({swapped ? node.left : node.right, false});
-      stack.push_back({swapped ? node.right : node.left, false});
-      continue;
-    }
-    auto instr    = sdf_instr{};
-    instr.node    = node;
-    instr.space   = space[index];
-    instr.swapped = swapped;
-    if (node.type == sdf_type::op_transform) {
-      // Its map is in the spaces of the primitives below; only a distance
-      // factor other than 1 (a scaling map) is left to apply.
-      instr.scale = program.frame_scales[node.frame];
-      if (instr.scale == 1) continue;
-    }
-    tape.instrs.push_back(instr);
-  }
+  tape.nodes  = program.nodes;
+  tape.spaces = std::move(space);
+  emit_instrs(
+      program, [](int index) { return index; },
+      [&](int index) { return tape.spaces[index]; }, tape.instrs);
   return tape;
+}
+
+std::vector<sdf_instr> make_sdf_instrs(
+    const sdf_program& pruned, const sdf_tape& pool) {
+  auto instrs = std::vector<sdf_instr>{};
+  if (pruned.nodes.empty()) return instrs;
+  check_tree(pruned);
+  emit_instrs(
+      pruned, [&](int index) { return pruned.nodes[index].origin; },
+      [&](int index) { return pool.spaces[pruned.nodes[index].origin]; },
+      instrs);
+  return instrs;
 }
 
 // -----------------------------------------------------------------------------
@@ -214,12 +239,20 @@ float eval_primitive(const sdf_node& node, vec3f p) {
 
 float eval_sdf(const sdf_tape& tape, vec3f p) {
   assert(!tape.instrs.empty());
+  return eval_sdf(
+      tape, tape.instrs.data(), tape.instrs.data() + tape.instrs.size(), p);
+}
+
+float eval_sdf(const sdf_tape& pool, const sdf_instr* begin,
+    const sdf_instr* end, vec3f p) {
+  auto& tape = pool;
   float stack[sdf_stack_size];
   auto  top   = 0;  // number of values on the stack
   auto  space = invalidid;
   auto  q     = p;  // p in `space`
-  for (auto& instr : tape.instrs) {
-    auto& node = instr.node;
+  for (auto it = begin; it != end; ++it) {
+    auto& instr = *it;
+    auto& node  = tape.nodes[instr.node];
     // Binary operators read a (left) and b (right) from the top two entries.
     auto binary = [&](auto op) {
       auto b = stack[top - 1], a = stack[top - 2];
@@ -332,7 +365,7 @@ static bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g) {
 vec3f eval_sdf_gradient(const sdf_tape& tape, vec3f p, float step) {
   auto g = vec3f{};
   if (tape.instrs.size() == 1 && tape.instrs[0].space == invalidid &&
-      eval_primitive_gradient(tape.instrs[0].node, p, g))
+      eval_primitive_gradient(tape.nodes[tape.instrs[0].node], p, g))
     return g;
   return normalize(tetrahedral_gradient(
       [&](vec3f q) { return eval_sdf(tape, q); }, p, step));

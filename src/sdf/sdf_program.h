@@ -65,6 +65,7 @@ struct sdf_node {
   int      left      = invalidid;
   int      right     = invalidid;
   int      frame     = invalidid;  // index in sdf_program::frames
+  int      origin    = invalidid;  // pruned copies: the node it came from
 };
 
 // A flat expression tree. Operands come before the nodes that use them; the
@@ -112,25 +113,33 @@ inline constexpr int sdf_stack_size = 32;
 // One step of a tape: a primitive pushes its value at the point mapped into
 // `space`, an operator pops its operands and pushes its value; `swapped`
 // says that the right operand was evaluated first (it lies below the left).
+// Steps name their node in the tape's node pool, so that the many pruned
+// step lists of an sdf_field share one copy of the nodes and maps.
 struct sdf_instr {
-  sdf_node node    = {};
-  int      space   = invalidid;  // primitives: index in sdf_tape::frames
-  float    scale   = 1;          // transforms: distance factor
-  bool     swapped = false;
+  int   node    = invalidid;  // in sdf_tape::nodes
+  int   space   = invalidid;  // primitives: in sdf_tape::frames
+  float scale   = 1;          // transforms: distance factor
+  bool  swapped = false;
 };
 
 // A program compiled for evaluation without recursion, as libfive flattens
-// its trees: the nodes in evaluation order, and the map from the program's
-// space into each transform's space, composed once (nested transforms cost
-// one map per primitive, not one per level).
+// its trees: the steps in evaluation order, the program's nodes, and the map
+// from the program's space into each transform's space, composed once
+// (nested transforms cost one map per primitive, not one per level).
 struct sdf_tape {
   std::vector<sdf_instr> instrs = {};
+  std::vector<sdf_node>  nodes  = {};  // the program's nodes
   std::vector<frame3f>   frames = {};  // child_from_root of each space
+  std::vector<int>       spaces = {};  // space of each node
 };
 
 // Compile a program. Throws io_error if the nodes do not form a tree whose
 // operands come before their users.
 sdf_tape make_sdf_tape(const sdf_program& program);
+// Steps of a program pruned from the tape's program (its nodes' `origin`
+// index the tape's nodes), evaluated with the tape's nodes and maps.
+std::vector<sdf_instr> make_sdf_instrs(
+    const sdf_program& pruned, const sdf_tape& pool);
 
 // -----------------------------------------------------------------------------
 // EVALUATION
@@ -140,6 +149,9 @@ sdf_tape make_sdf_tape(const sdf_program& program);
 float eval_primitive(const sdf_node& node, vec3f p);
 // Distance of a compiled program at a local point. Allocates nothing.
 float eval_sdf(const sdf_tape& tape, vec3f p);
+// Distance of the steps [begin, end) over the nodes and maps of `pool`.
+float eval_sdf(const sdf_tape& pool, const sdf_instr* begin,
+    const sdf_instr* end, vec3f p);
 // Unit gradient of a compiled program; analytic for simple primitives,
 // otherwise tetrahedral central differences with step `step`.
 vec3f eval_sdf_gradient(const sdf_tape& tape, vec3f p, float step);

@@ -32,17 +32,21 @@
 //   So a may get cap hi_b + k (no floor: values of a below it all matter):
 //   it is dropped when lo_a >= hi_b + k, i.e. when it lies farther than the
 //   blend radius above every value of the other operand. It may also get
-//   cap cap_n + k: where a >= cap_n + k, either b <= cap_n, so a and any
-//   g >= cap_n + k lie at least k above b and both smooth minima are b; or
-//   b > cap_n, and both smooth minima are at least smooth_min(cap_n + k,
-//   cap_n) = cap_n (the smooth minimum is monotone in each operand: its
-//   partial derivatives are h/2 and 1 - h/2). a gets the smaller cap.
-// - smooth_max(a, b, k) = -smooth_min(-a, -b, k): a gets floor
-//   max(lo_b - k, floor_n - k) and is dropped when its hi is below it.
-//   Smooth subtraction smooth_max(a, -b, k): a gets floor
-//   max(-hi_b - k, floor_n - k); -b gets floor max(lo_a - k, floor_n - k),
-//   so b gets the negated cap, and b is dropped when -lo_b is below that
-//   floor.
+//   a cap T from cap_n: where a >= T, either b <= T - k, so a and any
+//   g >= T lie at least k above b and both smooth minima are b; or
+//   b > T - k, and then (the smooth minimum is monotone in each operand: its
+//   partial derivatives are h/2 and 1 - h/2) both smooth minima are at
+//   least f(T) = smooth_min(T, max(lo_b, T - k)), which is >= cap_n for
+//   T >= cap_n + k always, for T = cap_n when lo_b >= cap_n + k, and in
+//   between for T = lo_b + k - 2 sqrt(k (lo_b - cap_n)), where f(T) = cap_n
+//   (solving the polynomial; smooth_cap()). a gets the smaller of the two
+//   caps. Without the lower bound of b, each level of a chain of kept
+//   operands would loosen the cap by k.
+// - smooth_max(a, b, k) = -smooth_min(-a, -b, k): a gets the mirrored
+//   floor max(lo_b - k, -smooth_cap(-floor_n, -hi_b)) and is dropped when
+//   its hi is below it. Smooth subtraction smooth_max(a, -b, k) is the same
+//   with -b in [-hi_b, -lo_b]; b gets the negated floor of -b as its cap,
+//   and is dropped when -lo_b is below that floor.
 // - round (a - r): cap and floor move by r. transform (s a, s > 0): they are
 //   divided by s. onion (|a| - t) is not monotone: its operand gets none.
 //
@@ -69,6 +73,17 @@ namespace implicit {
 // Relative widening of intervals against the rounding of the centre value
 // and of the Lipschitz radius.
 static constexpr float interval_margin = 1e-4f;
+
+// The cap that a smooth-min operand a inherits from its node's cap C when
+// the other operand is at least `lo_other` (see the proof above): the least
+// T with smooth_min(T, max(lo_other, T - k)) >= C.
+static float smooth_cap(float cap, float lo_other, float k) {
+  if (k <= 0) return cap;
+  auto d = lo_other - cap;
+  if (!(d > 0)) return cap + k;
+  if (d >= k) return cap;
+  return lo_other + k - 2 * std::sqrt(k * d);
+}
 
 sdf_program prune_sdf(const sdf_program& program, const bbox3f& box) {
   auto range = vec2f{};
@@ -251,36 +266,40 @@ sdf_program prune_sdf(
         }
         break;
       case sdf_type::op_smooth_union: {
-        auto reach = cap[i] + k;  // see the proof above
-        if (lo[l] >= std::min(hi[r] + k, reach)) {
+        auto reach_l = smooth_cap(cap[i], lo[r], k);
+        auto reach_r = smooth_cap(cap[i], lo[l], k);
+        if (lo[l] >= std::min(hi[r] + k, reach_l)) {
           become(r);
-        } else if (lo[r] >= std::min(hi[l] + k, reach)) {
+        } else if (lo[r] >= std::min(hi[l] + k, reach_r)) {
           become(l);
         } else {
-          keep(l, std::min(hi[r] + k, reach), -flt_inf);
-          keep(r, std::min(hi[l] + k, reach), -flt_inf);
+          keep(l, std::min(hi[r] + k, reach_l), -flt_inf);
+          keep(r, std::min(hi[l] + k, reach_r), -flt_inf);
         }
         break;
       }
       case sdf_type::op_smooth_intersection: {
-        auto reach = floor[i] - k;
-        if (hi[l] <= std::max(lo[r] - k, reach)) {
+        auto reach_l = -smooth_cap(-floor[i], -hi[r], k);
+        auto reach_r = -smooth_cap(-floor[i], -hi[l], k);
+        if (hi[l] <= std::max(lo[r] - k, reach_l)) {
           become(r);
-        } else if (hi[r] <= std::max(lo[l] - k, reach)) {
+        } else if (hi[r] <= std::max(lo[l] - k, reach_r)) {
           become(l);
         } else {
-          keep(l, flt_inf, std::max(lo[r] - k, reach));
-          keep(r, flt_inf, std::max(lo[l] - k, reach));
+          keep(l, flt_inf, std::max(lo[r] - k, reach_l));
+          keep(r, flt_inf, std::max(lo[l] - k, reach_r));
         }
         break;
       }
       case sdf_type::op_smooth_subtraction: {
-        auto reach = floor[i] - k;
-        if (-lo[r] <= std::max(lo[l] - k, reach)) {
+        // The operands are a and c = -b, c in [-hi_b, -lo_b].
+        auto reach_l = -smooth_cap(-floor[i], lo[r], k);
+        auto reach_c = -smooth_cap(-floor[i], -hi[l], k);
+        if (-lo[r] <= std::max(lo[l] - k, reach_c)) {
           become(l);
         } else {
-          keep(l, flt_inf, std::max(-hi[r] - k, reach));
-          keep(r, -std::max(lo[l] - k, reach), -flt_inf);
+          keep(l, flt_inf, std::max(-hi[r] - k, reach_l));
+          keep(r, -std::max(lo[l] - k, reach_c), -flt_inf);
         }
         break;
       }
@@ -474,11 +493,11 @@ static int field_depth(size_t leaves, int extra) {
 }
 
 // Build the octree of `field` down to `max_depth`; false (and a partial
-// octree) when the leaf tapes would take more than `max_bytes`.
+// octree) when the leaf steps would take more than `max_bytes`.
 static bool build_octree(sdf_field& field, const sdf_program& program,
     const sdf_field_params& params, int max_depth, size_t max_bytes) {
   field.cells.clear();
-  field.tapes.clear();
+  field.instrs.clear();
   field.depth = 0;
   // Depth first with an explicit stack, so that only the programs along one
   // path (8 per level) are held at a time; the 8 children of a cell share
@@ -489,9 +508,13 @@ static bool build_octree(sdf_field& field, const sdf_program& program,
     int                                depth   = 0;
     std::shared_ptr<const sdf_program> program = nullptr;
   };
+  // Pruned copies name their node in the whole program (sdf_node::origin),
+  // whose tape holds the nodes and maps for all leaves.
+  auto root = program;
+  for (auto i = 0; i < (int)root.nodes.size(); i++) root.nodes[i].origin = i;
   auto stack = std::vector<pending>{
-      {0, field.box, 0, std::make_shared<const sdf_program>(program)}};
-  auto stored = size_t{0};  // bytes of the leaf tapes
+      {0, field.box, 0, std::make_shared<const sdf_program>(std::move(root))}};
+  auto stored = size_t{0};  // bytes of the leaf steps
   field.cells.push_back({});
   while (!stack.empty()) {
     auto item = std::move(stack.back());
@@ -512,9 +535,11 @@ static bool build_octree(sdf_field& field, const sdf_program& program,
     auto leaf = (int)size <= params.leaf_nodes || item.depth >= max_depth ||
                 (item.depth >= 3 && size >= item.program->nodes.size());
     if (leaf) {
-      field.cells[item.cell].tape = (int)field.tapes.size();
-      field.tapes.push_back(make_sdf_tape(pruned));
-      stored += sdf_tape_bytes(field.tapes.back());
+      auto steps                   = make_sdf_instrs(pruned, field.full);
+      field.cells[item.cell].begin = (int)field.instrs.size();
+      field.cells[item.cell].count = (int)steps.size();
+      field.instrs.insert(field.instrs.end(), steps.begin(), steps.end());
+      stored += steps.size() * sizeof(sdf_instr);
       if (stored > max_bytes) return false;
       continue;
     }
@@ -529,10 +554,10 @@ static bool build_octree(sdf_field& field, const sdf_program& program,
   return true;
 }
 
-// Default budget of the leaf tapes: 16 KiB per node of the program, at
-// least 256 MiB and at most 1 GiB. Over budget, the octree is rebuilt one
-// level shallower.
-static constexpr size_t field_min_bytes = size_t{256} << 20;
+// Default budget of the leaf steps: 8 KiB per node of the program, at least
+// 64 MiB and at most 1 GiB. Over budget, the octree is rebuilt one level
+// shallower.
+static constexpr size_t field_min_bytes = size_t{64} << 20;
 static constexpr size_t field_max_bytes = size_t{1} << 30;
 
 sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
@@ -574,36 +599,34 @@ int find_sdf_cell(const sdf_field& field, vec3f p) {
   return cell;
 }
 
-const sdf_tape& find_sdf_tape(const sdf_field& field, vec3f p) {
-  auto cell = find_sdf_cell(field, p);
-  if (cell < 0 || field.cells[cell].tape < 0) return field.full;
-  return field.tapes[field.cells[cell].tape];
-}
-
 vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step) {
-  auto& tape = find_sdf_tape(field, p);
-  if (tape.instrs.size() == 1 && tape.instrs[0].space == invalidid)
-    return eval_sdf_gradient(tape, p, step);
+  // One primitive in the object's space: its analytic gradient.
+  auto cell = find_sdf_cell(field, p);
+  if (cell >= 0 && field.cells[cell].count == 1) {
+    auto& instr = field.instrs[field.cells[cell].begin];
+    if (instr.space == invalidid) {
+      auto single   = sdf_tape{};
+      single.instrs = {sdf_instr{0, invalidid, 1, false}};
+      single.nodes  = {field.full.nodes[instr.node]};
+      return eval_sdf_gradient(single, p, step);
+    }
+  }
+  if (cell < 0 && field.full.instrs.size() == 1)
+    return eval_sdf_gradient(field.full, p, step);
   return normalize(tetrahedral_gradient(
       [&](vec3f q) { return eval_sdf(field, q); }, p, step));
 }
 
-size_t sdf_field_nodes(const sdf_field& field) {
-  auto count = size_t{0};
-  for (auto& tape : field.tapes) count += tape.instrs.size();
-  return count;
-}
-
 size_t sdf_tape_bytes(const sdf_tape& tape) {
   return sizeof(tape) + tape.instrs.size() * sizeof(sdf_instr) +
-         tape.frames.size() * sizeof(frame3f);
+         tape.nodes.size() * sizeof(sdf_node) +
+         tape.frames.size() * sizeof(frame3f) +
+         tape.spaces.size() * sizeof(int);
 }
 
 size_t sdf_field_bytes(const sdf_field& field) {
-  auto bytes = sizeof(field) + field.cells.size() * sizeof(sdf_cell) +
-               sdf_tape_bytes(field.full);
-  for (auto& tape : field.tapes) bytes += sdf_tape_bytes(tape);
-  return bytes;
+  return sizeof(field) + field.cells.size() * sizeof(sdf_cell) +
+         sdf_tape_bytes(field.full) + field.instrs.size() * sizeof(sdf_instr);
 }
 
 }  // namespace implicit

@@ -56,32 +56,34 @@ std::vector<sdf_program> split_sdf_union(const sdf_program& program);
 struct sdf_field_params {
   int    leaf_nodes = 24;  // a cell with at most this many nodes is a leaf
   int    max_depth  = -1;  // octree levels; -1: about cbrt(nodes) cells/axis
-  size_t max_bytes  = 0;   // bytes of all leaf tapes; 0: see make_sdf_field
+  size_t max_bytes  = 0;   // bytes of all leaf steps; 0: see make_sdf_field
 };
 
-// One octree cell: eight children from `children`, or a leaf with a tape,
-// or a leaf with a constant bound: a cell where the field keeps one sign and
-// stays at least half the cell's half diagonal from zero answers with its
-// least distance (`bound`, the lower end of its range outside the surface,
-// the upper end inside). That is no exact value, but it is a distance bound
-// of the same sign, no larger in size than the field's, so sphere tracing
-// stays safe: its steps stay short of the surface, and no hit or normal is
-// ever taken there (every point of the cell is farther from the surface
-// than the hit threshold and the normals' finite-difference steps).
+// One octree cell: eight children from `children`, or a leaf with the steps
+// of its pruned program, or a leaf with a constant bound: a cell where the
+// field keeps one sign and stays at least half the cell's half diagonal from
+// zero answers with its least distance (`bound`, the lower end of its range
+// outside the surface, the upper end inside). That is no exact value, but it is
+// a distance bound of the same sign, no larger in size than the field's, so
+// sphere tracing stays safe: its steps stay short of the surface, and no hit or
+// normal is ever taken there (every point of the cell is farther from the
+// surface than the hit threshold and the normals' finite-difference steps).
 struct sdf_cell {
   int   children = invalidid;  // index of the first of 8 in sdf_field::cells
-  int   tape     = invalidid;  // leaves: index in sdf_field::tapes
-  float bound    = 0;          // leaves without a tape: the constant bound
+  int   begin    = invalidid;  // leaves: first step in sdf_field::instrs
+  int   count    = 0;          // leaves: steps (0: the constant bound)
+  float bound    = 0;          // leaves without steps: the constant bound
 };
 
 // A program with its pruned versions over an octree of `box`. Points outside
-// the box use the whole program. Plain data: copies and moves are safe.
+// the box use the whole program. The leaves' steps index the nodes and maps
+// of the whole program's tape. Plain data: copies and moves are safe.
 struct sdf_field {
-  sdf_tape              full  = {};  // the whole program
-  bbox3f                box   = {};  // the root cell (empty: no octree)
-  std::vector<sdf_cell> cells = {};  // cells[0] is the root
-  std::vector<sdf_tape> tapes = {};  // leaf programs
-  int                   depth = 0;   // deepest level built
+  sdf_tape               full   = {};  // the whole program
+  bbox3f                 box    = {};  // the root cell (empty: no octree)
+  std::vector<sdf_cell>  cells  = {};  // cells[0] is the root
+  std::vector<sdf_instr> instrs = {};  // leaf steps, one range per leaf
+  int                    depth  = 0;   // deepest level built
 };
 
 // Build a field of `program` over `box`; programs of at most
@@ -93,26 +95,22 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
 // The leaf cell that holds `p`, or invalidid outside the octree.
 int find_sdf_cell(const sdf_field& field, vec3f p);
 
-// The tape that evaluates `p` exactly: its leaf's, or the whole program's
-// outside the octree and in constant cells.
-const sdf_tape& find_sdf_tape(const sdf_field& field, vec3f p);
-
 // Distance bound at a local point: exact near the surface, see sdf_cell
 // (allocates nothing).
 inline float eval_sdf(const sdf_field& field, vec3f p) {
   auto cell = find_sdf_cell(field, p);
   if (cell < 0) return eval_sdf(field.full, p);
   auto& leaf = field.cells[cell];
-  if (leaf.tape < 0) return leaf.bound;
-  return eval_sdf(field.tapes[leaf.tape], p);
+  if (leaf.count == 0) return leaf.bound;
+  auto begin = field.instrs.data() + leaf.begin;
+  return eval_sdf(field.full, begin, begin + leaf.count, p);
 }
 
 // Unit gradient at a local point; each finite-difference sample uses the
 // tape of its own cell, so it is the gradient of the whole field.
 vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step);
 
-// Instructions in the leaf tapes, and bytes of a tape and of a whole field.
-size_t sdf_field_nodes(const sdf_field& field);
+// Bytes of a tape and of a whole field.
 size_t sdf_tape_bytes(const sdf_tape& tape);
 size_t sdf_field_bytes(const sdf_field& field);
 
