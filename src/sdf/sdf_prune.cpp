@@ -492,33 +492,43 @@ static int field_depth(size_t leaves, int extra) {
   return std::clamp((int)std::ceil(std::log2(cells)) + extra, 1, 9);
 }
 
-// Build the octree of `field` down to `max_depth`; false (and a partial
-// octree) when the leaf steps would take more than `max_bytes`.
-static bool build_octree(sdf_field& field, const sdf_program& program,
+// Build the octree of `field` down to `max_depth`, its leaf steps within
+// about `max_bytes`.
+static void build_octree(sdf_field& field, const sdf_program& program,
     const sdf_field_params& params, int max_depth, size_t max_bytes) {
-  field.cells.clear();
-  field.instrs.clear();
-  field.depth = 0;
   // Depth first with an explicit stack, so that only the programs along one
   // path (8 per level) are held at a time; the 8 children of a cell share
-  // their parent's pruned program.
+  // their parent's pruned program and its budget: each child may use what
+  // its earlier siblings left, divided among it and the later ones (a cell
+  // that would not fit stays a leaf, with its larger program).
+  struct group {
+    size_t budget = 0;  // bytes for the 8 children's leaves
+    size_t start  = 0;  // bytes stored before the first child
+  };
   struct pending {
-    int                                cell    = 0;
-    bbox3f                             box     = {};
-    int                                depth   = 0;
-    std::shared_ptr<const sdf_program> program = nullptr;
+    int                                cell     = 0;
+    bbox3f                             box      = {};
+    int                                depth    = 0;
+    int                                octant   = 0;
+    std::shared_ptr<const sdf_program> program  = nullptr;
+    std::shared_ptr<const group>       siblings = nullptr;
   };
   // Pruned copies name their node in the whole program (sdf_node::origin),
   // whose tape holds the nodes and maps for all leaves.
   auto root = program;
   for (auto i = 0; i < (int)root.nodes.size(); i++) root.nodes[i].origin = i;
-  auto stack = std::vector<pending>{
-      {0, field.box, 0, std::make_shared<const sdf_program>(std::move(root))}};
   auto stored = size_t{0};  // bytes of the leaf steps
+  auto stack  = std::vector<pending>{
+       {0, field.box, 0, 0, std::make_shared<const sdf_program>(std::move(root)),
+           std::make_shared<const group>(group{max_bytes * 8, 0})}};
   field.cells.push_back({});
   while (!stack.empty()) {
     auto item = std::move(stack.back());
     stack.pop_back();
+    auto used = stored - item.siblings->start;
+    auto left =
+        item.siblings->budget > used ? item.siblings->budget - used : size_t{0};
+    auto budget = left / (8 - item.octant);
     auto range  = vec2f{};
     auto pruned = prune_sdf(*item.program, item.box, range);
     auto size   = pruned.nodes.size();
@@ -529,10 +539,13 @@ static bool build_octree(sdf_field& field, const sdf_program& program,
       field.cells[item.cell].bound = range.x > 0 ? range.x : range.y;
       continue;
     }
-    // A leaf when small enough, deep enough, over budget, or when pruning
-    // stopped working (a chain of roundings has nothing to drop: its cells
-    // would multiply copies of it).
+    // A leaf when small enough, deep enough, when its children would not
+    // fit its budget (they hold about 3 times its steps: operands near
+    // their boundaries are in several), or when pruning stopped working (a
+    // chain of roundings has nothing to drop: its cells would multiply
+    // copies of it).
     auto leaf = (int)size <= params.leaf_nodes || item.depth >= max_depth ||
+                3 * size * sizeof(sdf_instr) > budget ||
                 (item.depth >= 3 && size >= item.program->nodes.size());
     if (leaf) {
       auto steps                   = make_sdf_instrs(pruned, field.full);
@@ -540,24 +553,22 @@ static bool build_octree(sdf_field& field, const sdf_program& program,
       field.cells[item.cell].count = (int)steps.size();
       field.instrs.insert(field.instrs.end(), steps.begin(), steps.end());
       stored += steps.size() * sizeof(sdf_instr);
-      if (stored > max_bytes) return false;
       continue;
     }
     auto children                   = (int)field.cells.size();
     field.cells[item.cell].children = children;
     field.cells.resize(field.cells.size() + 8);
-    auto shared = std::make_shared<const sdf_program>(std::move(pruned));
+    auto shared   = std::make_shared<const sdf_program>(std::move(pruned));
+    auto siblings = std::make_shared<const group>(group{budget, stored});
     for (auto octant = 7; octant >= 0; octant--)
       stack.push_back({children + octant, octant_box(item.box, octant),
-          item.depth + 1, shared});
+          item.depth + 1, octant, shared, siblings});
   }
-  return true;
 }
 
-// Default budget of the leaf steps: 8 KiB per node of the program, at least
-// 64 MiB and at most 1 GiB. Over budget, the octree is rebuilt one level
-// shallower.
-static constexpr size_t field_min_bytes = size_t{64} << 20;
+// Default budget of the leaf steps: 4 KiB per node of the program, at least
+// 32 MiB and at most 1 GiB.
+static constexpr size_t field_min_bytes = size_t{32} << 20;
 static constexpr size_t field_max_bytes = size_t{1} << 30;
 
 sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
@@ -578,10 +589,7 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
   auto max_bytes = params.max_bytes > 0 ? params.max_bytes
                                         : std::clamp(count * 16384,
                                               field_min_bytes, field_max_bytes);
-  // Over budget: one level less (uniformly coarser cells with larger
-  // programs beat a budget cut that leaves some cells unpruned).
-  for (auto depth = max_depth; depth >= 0; depth--)
-    if (build_octree(field, program, params, depth, max_bytes)) break;
+  build_octree(field, program, params, max_depth, max_bytes);
   return field;
 }
 

@@ -109,10 +109,12 @@ accel_data make_accel(
     object.local_padding = padding * max_stretch(object.local_from_world);
   // Fields: pruned over the object's box (bvh), or the whole tree (none).
   for (auto k = 0; k < (int)programs.size(); k++) {
-    auto& object = accel.objects[k];
-    auto  box    = type == accel_type::bvh ? field_box(object) : bbox3f{};
-    object.field =
-        std::make_shared<const sdf_field>(make_sdf_field(programs[k], box));
+    auto& object     = accel.objects[k];
+    auto  box        = type == accel_type::bvh ? field_box(object) : bbox3f{};
+    auto  params     = sdf_field_params{};
+    params.max_bytes = accel.march.prune_bytes;
+    object.field     = std::make_shared<const sdf_field>(
+        make_sdf_field(programs[k], box, params));
   }
   // Objects with finite boxes go into the BVH, the others beside it; empty
   // boxes (an intersection of disjoint shapes) can never be hit.

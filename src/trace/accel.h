@@ -55,6 +55,8 @@ struct march_params {
                                  // thresholds counts as a hit
   int linear_max = 8;            // up to this many bounded objects are
                                  // tested in a loop, not through the BVH
+  size_t prune_bytes = 0;        // budget of each object's pruned steps
+                                 // (0: sdf_field_params' default)
 };
 
 // -----------------------------------------------------------------------------
