@@ -120,14 +120,13 @@ static void emit_instrs(const sdf_program& program, const NodeOf& node_of,
   auto& nodes = program.nodes;
   auto  need  = std::vector<int>(n, 1);
   for (auto i = 0; i < n; i++) {
-    auto& node = nodes[i];
-    switch (operand_count(node.type)) {
-      case 0: need[i] = 1; break;
-      case 1: need[i] = need[node.left]; break;
-      default: {
-        auto l = need[node.left], r = need[node.right];
-        need[i] = l == r ? l + 1 : std::max(l, r);
-      }
+    auto& node  = nodes[i];
+    auto  count = operand_count(node.type);
+    if (count == 1) {
+      need[i] = need[node.left];
+    } else if (count == 2) {
+      auto l = need[node.left], r = need[node.right];
+      need[i] = l == r ? l + 1 : std::max(l, r);
     }
   }
   if (need[n - 1] > sdf_stack_size)
@@ -517,12 +516,14 @@ float sdf_lipschitz(const sdf_program& program) {
   if (program.nodes.empty()) return 1;
   auto lipschitz = std::vector<float>(program.nodes.size(), 1);
   for (auto i = 0; i < (int)program.nodes.size(); i++) {
-    auto& node = program.nodes[i];
-    switch (operand_count(node.type)) {
-      case 0: lipschitz[i] = primitive_lipschitz(node); break;
-      case 1: lipschitz[i] = lipschitz[node.left]; break;
-      default:
-        lipschitz[i] = std::max(lipschitz[node.left], lipschitz[node.right]);
+    auto& node  = program.nodes[i];
+    auto  count = operand_count(node.type);
+    if (count == 0) {
+      lipschitz[i] = primitive_lipschitz(node);
+    } else if (count == 1) {
+      lipschitz[i] = lipschitz[node.left];
+    } else {
+      lipschitz[i] = std::max(lipschitz[node.left], lipschitz[node.right]);
     }
   }
   return lipschitz.back();
