@@ -115,10 +115,15 @@ json parse_json(const std::string& text, const std::string& filename) {
   auto callback = [&](int, json::parse_event_t event, json& parsed) {
     switch (event) {
       case json::parse_event_t::object_start:
-        scopes.push_back({true, "", 0, {}});
-        break;
       case json::parse_event_t::array_start:
-        scopes.push_back({false, "", 0, {}});
+        // Code that walks the JSON (and nlohmann's own copy and dump)
+        // recurses once per level: bound it here, with a clear message.
+        if (scopes.size() >= max_json_depth)
+          throw_json_error({filename, scope_path(scopes)}, scopes.back().key,
+              "nested deeper than " + std::to_string(max_json_depth) +
+                  " levels");
+        scopes.push_back(
+            {event == json::parse_event_t::object_start, "", 0, {}});
         break;
       case json::parse_event_t::key: {
         auto& scope = scopes.back();
