@@ -22,7 +22,8 @@
 
 namespace implicit {
 
-std::string check_image_size(int64_t width, int64_t height, size_t file_size) {
+std::string check_image_size(
+    int64_t width, int64_t height, size_t file_size, int64_t pixels_per_byte) {
   auto text = std::to_string(width) + "x" + std::to_string(height);
   if (width <= 0 || height <= 0) return "image is empty (" + text + ")";
   if (width > max_image_size || height > max_image_size)
@@ -33,7 +34,7 @@ std::string check_image_size(int64_t width, int64_t height, size_t file_size) {
            std::to_string(max_image_pixels) + " pixels";
   // Even the best compression needs some bytes: a header alone can not
   // make us allocate gigabytes.
-  if (width * height / max_pixels_per_byte > (int64_t)file_size)
+  if (width * height / pixels_per_byte > (int64_t)file_size)
     return "image claims " + text + " pixels, more than a file of " +
            std::to_string(file_size) + " bytes can hold";
   return "";
@@ -68,7 +69,8 @@ image_data decode_png(
   auto& png   = owner.image;
   if (!png_image_begin_read_from_memory(&png, data, size))
     throw_decode_error(filename, png.message);
-  auto error = check_image_size(png.width, png.height, size);
+  auto error =
+      check_image_size(png.width, png.height, size, png_pixels_per_byte);
   if (!error.empty()) throw_io_error(filename, error);
   auto image = make_image((int)png.width, (int)png.height);
   // 16-bit files keep their precision: libpng hands them back linear (it
@@ -160,7 +162,8 @@ static bool decode_jpeg_pixels(const uint8_t* data, size_t size,
   decoder.progress = &progress;
   jpeg_mem_src(&decoder, data, (unsigned long)size);
   jpeg_read_header(&decoder, TRUE);
-  error = check_image_size(decoder.image_width, decoder.image_height, size);
+  error = check_image_size(
+      decoder.image_width, decoder.image_height, size, jpeg_pixels_per_byte);
   if (!error.empty()) {
     jpeg_destroy_decompress(&decoder);
     return false;
@@ -313,7 +316,7 @@ image_data decode_hdr(
   if (!read_hdr_line(r, line) || !parse_hdr_resolution(line, width, height))
     throw_decode_error(filename,
         "unsupported resolution line (only '-Y height +X width' is read)");
-  auto error = check_image_size(width, height, size);
+  auto error = check_image_size(width, height, size, hdr_pixels_per_byte);
   if (!error.empty()) throw_io_error(filename, error);
   auto image = make_image((int)width, (int)height);
   auto rgbe  = std::vector<uint8_t>((size_t)width * 4);

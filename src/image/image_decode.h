@@ -15,9 +15,19 @@
 
 namespace implicit {
 
+// Pixels per byte of the file beyond what each format's best compression
+// reaches (with a margin): a header claiming more is refused.
+inline constexpr int64_t png_pixels_per_byte = 1
+                                               << 14;  // deflate ~1032:1, 1-bit
+inline constexpr int64_t jpeg_pixels_per_byte = 1 << 12;  // progressive runs
+inline constexpr int64_t exr_pixels_per_byte  = 1 << 12;  // zip of one channel
+inline constexpr int64_t hdr_pixels_per_byte  = 64;   // runs of 127 in 8 bytes
+inline constexpr int64_t stb_pixels_per_byte  = 256;  // TGA and BMP runs
+
 // "" when a width x height image from a file of `file_size` bytes is within
-// the limits of image_io.h, else the problem ("4096x0 pixels: ...").
-std::string check_image_size(int64_t width, int64_t height, size_t file_size);
+// the limits of image_io.h and `pixels_per_byte`, else the problem.
+std::string check_image_size(
+    int64_t width, int64_t height, size_t file_size, int64_t pixels_per_byte);
 
 // Whether the bytes start with the signature of the format.
 bool is_png_data(const uint8_t* data, size_t size);

@@ -143,13 +143,13 @@ static image_data load_stb(
   auto width = 0, height = 0, channels = 0;
   if (!stbi_info_from_memory(data, (int)size, &width, &height, &channels))
     throw_io_error(filename, "cannot read image (" + stb_reason() + ")");
-  auto error = check_image_size(width, height, size);
+  auto error = check_image_size(width, height, size, stb_pixels_per_byte);
   if (!error.empty()) throw_io_error(filename, error);
   auto pixels = std::unique_ptr<stbi_uc, stb_freer>{
       stbi_load_from_memory(data, (int)size, &width, &height, &channels, 4)};
   if (!pixels)
     throw_io_error(filename, "cannot read image (" + stb_reason() + ")");
-  error = check_image_size(width, height, size);
+  error = check_image_size(width, height, size, stb_pixels_per_byte);
   if (!error.empty()) throw_io_error(filename, error);
   auto image = make_image(width, height);
   for (size_t idx = 0; idx < image.pixels.size(); idx++) {
@@ -212,7 +212,7 @@ static image_data load_exr(
     auto file   = Imf::InputFile(stream);
     auto window = file.header().dataWindow();
     auto error  = check_image_size((int64_t)window.max.x - window.min.x + 1,
-         (int64_t)window.max.y - window.min.y + 1, size);
+         (int64_t)window.max.y - window.min.y + 1, size, exr_pixels_per_byte);
     if (!error.empty()) throw_io_error(filename, error);
     auto  width    = window.max.x - window.min.x + 1;
     auto  height   = window.max.y - window.min.y + 1;

@@ -16,12 +16,11 @@
 namespace implicit {
 
 // Limits on images read, checked from the header before decoding: pixels per
-// side, pixels in all (2^26 pixels is 1 GiB as float RGBA), and pixels per
-// byte of the file (far beyond what real compression reaches, so that a tiny
-// header can not make us allocate gigabytes).
-inline constexpr int     max_image_size      = 32768;
-inline constexpr int64_t max_image_pixels    = int64_t{1} << 26;
-inline constexpr int64_t max_pixels_per_byte = int64_t{1} << 16;
+// side and pixels in all (2^26 pixels is 1 GiB as float RGBA). Each format
+// also bounds the pixels per byte of the file (image_decode.h), so that a
+// tiny header can not make us allocate gigabytes.
+inline constexpr int     max_image_size   = 32768;
+inline constexpr int64_t max_image_pixels = int64_t{1} << 26;
 
 // Whether the extension is a linear float format (.hdr, .exr).
 bool is_hdr_filename(const std::string& filename);
