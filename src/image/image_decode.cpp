@@ -195,6 +195,8 @@ image_data decode_jpeg(
   auto row   = std::vector<uint8_t>{};
   auto error = std::string{};
   if (!decode_jpeg_pixels(data, size, image, row, error)) {
+    // Size problems (check_image_size, "image is ...") read as they are;
+    // libjpeg's messages get the usual prefix.
     if (error.compare(0, 6, "image ") == 0) throw_io_error(filename, error);
     throw_decode_error(filename, error);
   }
