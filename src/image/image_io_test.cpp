@@ -376,7 +376,11 @@ TEST_CASE("image io refuses the fuzz findings, naming the file") {
            {"tga_huge_header.tga",
                "image is 23170x23170 pixels, over the limit of 67108864"},
            // stb wrote a byte past its Huffman table; libjpeg refuses it.
-           {"jpeg_bad_huffman_table.jpg", "cannot read image ("}}) {
+           {"jpeg_bad_huffman_table.jpg", "cannot read image ("},
+           // OpenEXR allocated 1.7 GB for an attribute of this 225-byte
+           // file (after a channel list shorter than its size field).
+           {"exr_huge_attribute_after_chlist.exr",
+               "cannot read image (byte 81: attribute "}}) {
     auto filename = data_path(name);
     CAPTURE(filename);
     auto error = error_of([&] { load_image(filename); });
@@ -418,6 +422,18 @@ TEST_CASE("image io checks the size in the header before decoding") {
   bytes.replace(where + 17 + 4 + 8, 4, (const char*)&max_x, 4);
   write_bytes(exr, bytes);
   CHECK(starts_with(error_of([&] { load_image(exr); }), exr + ": "));
+  // An attribute claiming 1.7 GB: OpenEXR would allocate it before reading.
+  save_image(exr, make_gradient(2, 2));
+  bytes = read_bytes(exr);
+  where = bytes.find(std::string("dataWindow\0box2i\0", 17));
+  bytes.replace(where + 11, 5, "boxXi");
+  auto huge = int32_t{1768947712};
+  bytes.replace(where + 17, 4, (const char*)&huge, 4);
+  write_bytes(exr, bytes);
+  CHECK(error_of([&] {
+    load_image(exr);
+  }).find("attribute dataWindow (1768947712 bytes) runs past the end") !=
+        std::string::npos);
 }
 
 TEST_CASE("image io decodes from memory like from a file") {
