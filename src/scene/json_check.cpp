@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <new>
 #include <set>
 
 #include "../util/error.h"
@@ -156,6 +157,9 @@ json parse_json(const std::string& text, const std::string& filename) {
     if (start != std::string::npos) problem = what.substr(start + 2);
     throw io_error(filename + ":" + std::to_string(position.x) + ":" +
                    std::to_string(position.y) + ": invalid JSON: " + problem);
+  } catch (const std::bad_alloc&) {
+    // A JSON text larger than the memory left: still an error naming it.
+    throw io_error(filename + ": out of memory parsing the JSON");
   } catch (const json::exception& error) {
     // Numbers beyond double range (1e999) are out_of_range errors without a
     // position; the message quotes the number, so look for it in the text.
