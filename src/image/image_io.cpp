@@ -1,7 +1,12 @@
 // # implicit: image files
 //
-// 8-bit formats and Radiance HDR go through stb, OpenEXR through the OpenEXR
-// library, always as 32-bit float channels so that round trips are exact.
+// Loading reads the whole file and decodes it from memory: PNG through
+// libpng, JPEG through libjpeg-turbo, Radiance HDR with our own decoder
+// (image_decode.cpp says why), BMP and TGA through stb, OpenEXR through the
+// OpenEXR library. Every decoder checks the size in the header against the
+// limits of image_io.h before it allocates the pixels. Saving goes through
+// stb and OpenEXR, always as 32-bit float channels for OpenEXR so that round
+// trips are exact.
 // Every writer streams into a temporary file next to the target that is then
 // renamed over it: a reader never sees a half-written image, and a failed
 // save leaves the previous file (if any) untouched.
@@ -12,6 +17,7 @@
 #include <stb/stb_image_write.h>
 #include <unistd.h>
 
+#include <Iex.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -26,9 +32,11 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 
 #include "../util/error.h"
 #include "../util/file.h"
+#include "image_decode.h"
 
 namespace implicit {
 
@@ -82,13 +90,13 @@ static std::string stb_reason() {
 // LOADING
 // -----------------------------------------------------------------------------
 
-// Open a file for reading; a missing or empty file is an error naming it.
-static file_ptr open_for_reading(const std::string& filename) {
+// Read a whole file; a missing, unreadable or empty file is an error naming
+// it.
+static std::vector<uint8_t> read_file(const std::string& filename) {
   auto file = file_ptr{std::fopen(filename.c_str(), "rb")};
   if (!file)
     throw_io_error(filename, "cannot open (" + errno_reason(errno) + ")");
-  // A directory opens fine on Linux and fails later with vaguer reasons;
-  // an empty file would get stb's "unknown image type".
+  // A directory opens fine on Linux and fails later with vaguer reasons.
   if (std::filesystem::is_directory(filename))
     throw_io_error(filename, "cannot open (" + errno_reason(EISDIR) + ")");
   if (std::fseek(file.get(), 0, SEEK_END) != 0)
@@ -98,41 +106,48 @@ static file_ptr open_for_reading(const std::string& filename) {
     throw_io_error(filename, "cannot read (" + errno_reason(errno) + ")");
   if (size == 0) throw_io_error(filename, "file is empty");
   std::rewind(file.get());
-  return file;
+  auto data = std::vector<uint8_t>((size_t)size);
+  errno     = 0;
+  if (std::fread(data.data(), 1, data.size(), file.get()) != data.size())
+    throw_io_error(filename, "cannot read (" + errno_reason(errno) + ")");
+  return data;
 }
 
-// Check what stb returned; dimensions must make a non-empty image.
-static void check_stb_result(
-    const std::string& filename, const void* data, int width, int height) {
-  if (data == nullptr)
-    throw_io_error(filename, "cannot read image (" + stb_reason() + ")");
-  if (width <= 0 || height <= 0) throw_io_error(filename, "image is empty");
+// Whether the bytes start with `magic`.
+static bool starts_with(const uint8_t* data, size_t size, const char* magic) {
+  auto length = std::strlen(magic);
+  return size >= length && std::memcmp(data, magic, length) == 0;
 }
 
-// Load an 8- or 16-bit file through stb, decoding sRGB colour (not alpha).
-static image_data load_ldr(const std::string& filename) {
-  auto file  = open_for_reading(filename);
-  auto width = 0, height = 0, channels = 0;
-  // 16-bit PNGs keep their precision; everything else is 8-bit.
-  if (stbi_is_16_bit_from_file(file.get())) {
-    auto data = std::unique_ptr<stbi_us, stb_freer>{
-        stbi_load_from_file_16(file.get(), &width, &height, &channels, 4)};
-    check_stb_result(filename, data.get(), width, height);
-    auto image = make_image(width, height);
-    for (size_t idx = 0; idx < image.pixels.size(); idx++) {
-      auto px           = data.get() + idx * 4;
-      image.pixels[idx] = {srgb_to_linear(px[0] / 65535.0f),
-          srgb_to_linear(px[1] / 65535.0f), srgb_to_linear(px[2] / 65535.0f),
-          px[3] / 65535.0f};
-    }
-    return image;
+// Load a BMP or TGA through stb, 8-bit, sRGB colour (not alpha). The size
+// from the header is checked before stb allocates.
+static image_data load_stb(
+    const std::string& filename, const uint8_t* data, size_t size) {
+  // stb probes every format it knows before TGA (which has no signature):
+  // refuse those it would decode instead, among them 16-bit PNM, whose
+  // buffer stb hands back 8-bit and we would read past.
+  for (auto magic : {"GIF8", "8BPS", "\x53\x80\xF6\x34", "P1", "P2", "P3", "P4",
+           "P5", "P6", "#?"}) {
+    if (starts_with(data, size, magic))
+      throw_io_error(
+          filename, "cannot read image (unsupported format for this name)");
   }
-  auto data = std::unique_ptr<stbi_uc, stb_freer>{
-      stbi_load_from_file(file.get(), &width, &height, &channels, 4)};
-  check_stb_result(filename, data.get(), width, height);
+  if (size > INT32_MAX)
+    throw_io_error(filename, "cannot read image (file over 2 GiB)");
+  auto width = 0, height = 0, channels = 0;
+  if (!stbi_info_from_memory(data, (int)size, &width, &height, &channels))
+    throw_io_error(filename, "cannot read image (" + stb_reason() + ")");
+  auto error = check_image_size(width, height, size, stb_pixels_per_byte);
+  if (!error.empty()) throw_io_error(filename, error);
+  auto pixels = std::unique_ptr<stbi_uc, stb_freer>{
+      stbi_load_from_memory(data, (int)size, &width, &height, &channels, 4)};
+  if (!pixels)
+    throw_io_error(filename, "cannot read image (" + stb_reason() + ")");
+  error = check_image_size(width, height, size, stb_pixels_per_byte);
+  if (!error.empty()) throw_io_error(filename, error);
   auto image = make_image(width, height);
   for (size_t idx = 0; idx < image.pixels.size(); idx++) {
-    auto px           = data.get() + idx * 4;
+    auto px           = pixels.get() + idx * 4;
     image.pixels[idx] = {srgb_to_linear(byte_to_float(px[0])),
         srgb_to_linear(byte_to_float(px[1])),
         srgb_to_linear(byte_to_float(px[2])), byte_to_float(px[3])};
@@ -140,37 +155,158 @@ static image_data load_ldr(const std::string& filename) {
   return image;
 }
 
-// Load a Radiance HDR file through stb (linear; alpha is 1).
-static image_data load_hdr(const std::string& filename) {
-  auto file = open_for_reading(filename);
-  // stbi_loadf would also decode an 8-bit file, with a gamma 2.2 guess.
-  if (!stbi_is_hdr_from_file(file.get()))
-    throw_io_error(filename, "cannot read image (not a Radiance HDR file)");
-  auto width = 0, height = 0, channels = 0;
-  auto data = std::unique_ptr<float, stb_freer>{
-      stbi_loadf_from_file(file.get(), &width, &height, &channels, 4)};
-  check_stb_result(filename, data.get(), width, height);
-  auto image = make_image(width, height);
-  for (size_t idx = 0; idx < image.pixels.size(); idx++) {
-    auto px           = data.get() + idx * 4;
-    image.pixels[idx] = {px[0], px[1], px[2], px[3]};
+// Load an 8- or 16-bit file, by its content: PNG (libpng), JPEG
+// (libjpeg-turbo), BMP (stb), and TGA (stb; it has no signature, so only
+// under a .tga name).
+static image_data load_ldr(
+    const std::string& filename, const uint8_t* data, size_t size) {
+  if (is_png_data(data, size)) return decode_png(filename, data, size);
+  if (is_jpeg_data(data, size)) return decode_jpeg(filename, data, size);
+  if (starts_with(data, size, "BM") || get_extension(filename) == ".tga")
+    return load_stb(filename, data, size);
+  throw_io_error(
+      filename, "cannot read image (not a PNG, JPEG, BMP or TGA file)");
+}
+
+// OpenEXR input stream over bytes in memory.
+struct exr_memory_stream : Imf::IStream {
+  const char* data     = nullptr;
+  uint64_t    size     = 0;
+  uint64_t    position = 0;
+  exr_memory_stream(const char* data_, size_t size_, const char* filename)
+      : Imf::IStream(filename), data(data_), size(size_) {}
+  bool read(char c[], int n) override {
+    if (n < 0 || position > size || (uint64_t)n > size - position)
+      throw Iex::InputExc("unexpected end of file");
+    std::memcpy(c, data + position, (size_t)n);
+    position += (uint64_t)n;
+    return position < size;
   }
-  return image;
+  uint64_t tellg() override { return position; }
+  void     seekg(uint64_t pos) override { position = pos; }
+};
+
+// Bytes of an OpenEXR attribute value of a fixed-size type: OpenEXR reads
+// these by their type, whatever the size field says; -1 for other types.
+static int64_t exr_attribute_size(const std::string& type) {
+  static const std::pair<const char*, int64_t> sizes[] = {{"box2i", 16},
+      {"box2f", 16}, {"compression", 1}, {"envmap", 1}, {"lineOrder", 1},
+      {"deepImageState", 1}, {"int", 4}, {"float", 4}, {"double", 8},
+      {"v2i", 8}, {"v2f", 8}, {"v2d", 16}, {"v3i", 12}, {"v3f", 12},
+      {"v3d", 24}, {"m33f", 36}, {"m33d", 72}, {"m44f", 64}, {"m44d", 128},
+      {"rational", 8}, {"timecode", 8}, {"keycode", 28}, {"chromaticities", 32},
+      {"tiledesc", 9}};
+  for (auto& [name, size] : sizes) {
+    if (type == name) return size;
+  }
+  return -1;
+}
+
+// Check an OpenEXR header the way OpenEXR reads it, before it does: it
+// allocates an unknown attribute's size, a string vector's string sizes and
+// a preview's width x height as the file states them (1.7 GB for a 225-byte
+// file in fuzzing). The layout: magic, version and flags, then per part a
+// list of (name, type, int32 size, value) ended by an empty name;
+// multi-part files end the list of parts with one more empty name.
+static void check_exr_header(
+    const std::string& filename, const uint8_t* data, size_t size) {
+  auto offset = size_t{0};
+  auto fail   = [&](const std::string& problem) {
+    throw_io_error(filename, "cannot read image (byte " +
+                                   std::to_string(offset) + ": " + problem + ")");
+  };
+  auto need = [&](uint64_t bytes, const std::string& what) {
+    if (bytes > size - offset)
+      fail(what + " (" + std::to_string(bytes) +
+           " bytes) runs past the end of the file");
+  };
+  auto read_i32 = [&](const std::string& what) {
+    need(4, what);
+    auto value = int32_t{0};
+    std::memcpy(&value, data + offset, 4);
+    offset += 4;
+    return value;
+  };
+  // A NUL-terminated name of at most 255 characters (long names).
+  auto read_name = [&](const std::string& what) {
+    auto end = (const uint8_t*)std::memchr(
+        data + offset, 0, std::min(size - offset, size_t{256}));
+    if (end == nullptr) fail(what + " has no end");
+    auto name = std::string((const char*)data + offset, (const char*)end);
+    offset += name.size() + 1;
+    return name;
+  };
+  if (size < 8 || data[0] != 0x76 || data[1] != 0x2f || data[2] != 0x31 ||
+      data[3] != 0x01)
+    fail("not an OpenEXR file");
+  auto multipart = (data[5] & 0x10) != 0;  // bit 12 of the version field
+  offset         = 8;
+  for (auto part = 0;; part++) {
+    need(1, "the header");
+    if (multipart && part > 0 && data[offset] == 0) break;
+    while (true) {
+      auto name = read_name("attribute name");
+      if (name.empty()) break;
+      auto type   = read_name("attribute type");
+      auto length = read_i32("attribute size");
+      if (length < 0) fail("attribute size " + std::to_string(length));
+      auto value = offset;
+      if (type == "chlist") {
+        // Channels up to an empty name, whatever the size says.
+        while (!read_name("channel name").empty()) {
+          need(16, "channel");
+          offset += 16;
+        }
+      } else if (type == "preview") {
+        auto width  = (uint32_t)read_i32("preview width");
+        auto height = (uint32_t)read_i32("preview height");
+        need((uint64_t)width * height * 4, "preview pixels");
+        offset += (size_t)width * height * 4;
+      } else if (exr_attribute_size(type) >= 0) {
+        need((uint64_t)exr_attribute_size(type), "attribute " + name);
+        offset += (size_t)exr_attribute_size(type);
+      } else {
+        need((uint64_t)length, "attribute " + name);
+        // A string vector holds (int32 size, bytes) pairs within it.
+        while (type == "stringvector" && offset < value + (size_t)length) {
+          auto string = read_i32("string size");
+          if (string < 0) fail("string size " + std::to_string(string));
+          need((uint64_t)string, "string");
+          offset += (size_t)string;
+        }
+        offset = value + (size_t)length;
+      }
+    }
+    if (!multipart) break;
+  }
+}
+
+// OpenEXR's own header checks: it refuses larger images before allocating
+// its line buffers and offset tables. Set once per process.
+static void init_openexr() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    Imf::Header::setMaxImageSize(max_image_size, max_image_size);
+    Imf::Header::setMaxTileSize(max_image_size, max_image_size);
+  });
 }
 
 // Load an OpenEXR file as float RGBA. Missing colour channels read as 0 and
 // a missing alpha as 1; a luminance-only file (channel Y) is read as grey.
-static image_data load_exr(const std::string& filename) {
-  // Open it once ourselves for a clear message on missing or empty files.
-  open_for_reading(filename);
+static image_data load_exr(
+    const std::string& filename, const uint8_t* data, size_t size) {
+  init_openexr();
+  check_exr_header(filename, data, size);
   try {
-    auto file   = Imf::InputFile(filename.c_str());
+    auto stream = exr_memory_stream{(const char*)data, size, filename.c_str()};
+    auto file   = Imf::InputFile(stream);
     auto window = file.header().dataWindow();
-    auto width  = (int64_t)window.max.x - window.min.x + 1;
-    auto height = (int64_t)window.max.y - window.min.y + 1;
-    if (width <= 0 || height <= 0 || width > INT32_MAX || height > INT32_MAX)
-      throw_io_error(filename, "image is empty or too large");
-    auto  image    = make_image((int)width, (int)height);
+    auto error  = check_image_size((int64_t)window.max.x - window.min.x + 1,
+         (int64_t)window.max.y - window.min.y + 1, size, exr_pixels_per_byte);
+    if (!error.empty()) throw_io_error(filename, error);
+    auto  width    = window.max.x - window.min.x + 1;
+    auto  height   = window.max.y - window.min.y + 1;
+    auto  image    = make_image(width, height);
     auto& channels = file.header().channels();
     auto  has      = [&](const char* name) {
       return channels.findChannel(name) != nullptr;
@@ -204,8 +340,10 @@ static image_data load_exr(const std::string& filename) {
       for (auto& p : image.pixels) p.y = p.z = p.x;
     }
     return image;
-  } catch (const io_error&) { throw; } catch (const std::exception& error) {
-    // OpenEXR throws Iex exceptions (and std::bad_alloc on absurd headers).
+  } catch (const io_error&) { throw; } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& error) {
+    // OpenEXR throws Iex exceptions.
     throw_io_error(
         filename, std::string("cannot read image (") + error.what() + ")");
   }
@@ -219,11 +357,32 @@ bool is_hdr_filename(const std::string& filename) {
 
 // Load an image as linear RGBA (8-bit files are converted from sRGB).
 image_data load_image(const std::string& filename) {
-  switch (get_format(filename)) {
-    case image_format::ldr: return load_ldr(filename);
-    case image_format::hdr: return load_hdr(filename);
-    case image_format::exr: return load_exr(filename);
-    case image_format::unknown: throw_unknown_format(filename);
+  if (get_format(filename) == image_format::unknown)
+    throw_unknown_format(filename);
+  auto data = std::vector<uint8_t>{};
+  try {
+    data = read_file(filename);
+  } catch (const std::bad_alloc&) {
+    throw_io_error(filename, "out of memory reading the file");
+  }
+  return load_image_from_memory(filename, data.data(), data.size());
+}
+
+// Load an image from the bytes of a file (the name picks the decoder).
+image_data load_image_from_memory(
+    const std::string& filename, const void* data, size_t size) {
+  auto bytes = (const uint8_t*)data;
+  if (size == 0) throw_io_error(filename, "file is empty");
+  try {
+    switch (get_format(filename)) {
+      case image_format::ldr: return load_ldr(filename, bytes, size);
+      case image_format::hdr: return decode_hdr(filename, bytes, size);
+      case image_format::exr: return load_exr(filename, bytes, size);
+      case image_format::unknown: throw_unknown_format(filename);
+    }
+  } catch (const std::bad_alloc&) {
+    // Within the size limits, but more than this machine has.
+    throw_io_error(filename, "out of memory decoding the image");
   }
   throw_unknown_format(filename);
 }

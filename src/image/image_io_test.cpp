@@ -352,4 +352,130 @@ TEST_CASE("image io load errors name the file") {
         misnamed + ": cannot read image (not a Radiance HDR file)");
 }
 
+// A file of tests/data: the fuzz findings of issue 12, kept as inputs.
+static std::string data_path(const std::string& name) {
+  return std::string{IMPLICIT_SOURCE_DIR} + "/tests/data/" + name;
+}
+
+TEST_CASE("image io refuses the fuzz findings, naming the file") {
+  struct finding {
+    std::string name  = "";
+    std::string error = "";
+  };
+  for (auto& [name, expected] : std::vector<finding>{
+           // stb decoded this as a 16-bit PGM and load_ldr read past its
+           // 8-bit buffer.
+           {"pgm16_named_png.png",
+               "cannot read image (not a PNG, JPEG, BMP or TGA file)"},
+           // stb's HDR decoder looped for ever on both.
+           {"hdr_rle_zero_run.hdr",
+               "cannot read image (scanline 0: bad run length"},
+           {"hdr_ends_mid_scanline.hdr",
+               "cannot read image (scanline 0: file ends"},
+           // 10.5 GB before failing: refused from the header now.
+           {"tga_huge_header.tga",
+               "image is 23170x23170 pixels, over the limit of 67108864"},
+           // stb wrote a byte past its Huffman table; libjpeg refuses it.
+           {"jpeg_bad_huffman_table.jpg", "cannot read image ("},
+           // OpenEXR allocated 1.7 GB for an attribute of this 225-byte
+           // file (after a channel list shorter than its size field).
+           {"exr_huge_attribute_after_chlist.exr",
+               "cannot read image (byte 81: attribute "}}) {
+    auto filename = data_path(name);
+    CAPTURE(filename);
+    auto error = error_of([&] { load_image(filename); });
+    CAPTURE(error);
+    CHECK(starts_with(error, filename + ": " + expected));
+  }
+}
+
+TEST_CASE("image io checks the size in the header before decoding") {
+  auto dir    = make_test_dir("size_limits");
+  auto header = [](const std::string& resolution) {
+    return "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + resolution + "\n";
+  };
+  struct sized {
+    std::string resolution = "";
+    std::string error      = "";
+  };
+  for (auto& [resolution, expected] :
+      std::vector<sized>{
+          {"-Y 1 +X 40000", "image is 40000x1 pixels, over the limit of 32768"},
+          {"-Y 30000 +X 30000", "over the limit of 67108864 pixels"},
+          {"-Y 8000 +X 8000", "more than a file of 51 bytes can hold"},
+          {"-Y 0 +X 8", "image is empty (8x0)"},
+          {"+Y 8 +X 8", "unsupported resolution line"}}) {
+    auto filename = dir + "/size.hdr";
+    write_bytes(filename, header(resolution));
+    auto error = error_of([&] { load_image(filename); });
+    CAPTURE(error);
+    CHECK(error.find(filename + ": ") == 0);
+    CHECK(error.find(expected) != std::string::npos);
+  }
+  // An EXR whose data window claims 100000 pixels a side.
+  auto exr = dir + "/wide.exr";
+  save_image(exr, make_gradient(2, 2));
+  auto bytes = read_bytes(exr);
+  auto where = bytes.find(std::string("dataWindow\0box2i\0", 17));
+  REQUIRE(where != std::string::npos);
+  auto max_x = int32_t{99999};
+  bytes.replace(where + 17 + 4 + 8, 4, (const char*)&max_x, 4);
+  write_bytes(exr, bytes);
+  CHECK(starts_with(error_of([&] { load_image(exr); }), exr + ": "));
+  // An attribute claiming 1.7 GB: OpenEXR would allocate it before reading.
+  save_image(exr, make_gradient(2, 2));
+  bytes = read_bytes(exr);
+  where = bytes.find(std::string("dataWindow\0box2i\0", 17));
+  bytes.replace(where + 11, 5, "boxXi");
+  auto huge = int32_t{1768947712};
+  bytes.replace(where + 17, 4, (const char*)&huge, 4);
+  write_bytes(exr, bytes);
+  CHECK(error_of([&] {
+    load_image(exr);
+  }).find("attribute dataWindow (1768947712 bytes) runs past the end") !=
+        std::string::npos);
+}
+
+TEST_CASE("image io decodes from memory like from a file") {
+  auto dir = make_test_dir("memory");
+  for (auto ext : {".png", ".jpg", ".hdr", ".exr", ".tga", ".bmp"}) {
+    auto filename = dir + "/gradient" + ext;
+    save_image(filename, make_gradient(7, 5));
+    auto bytes  = read_bytes(filename);
+    auto loaded = load_image_from_memory(filename, bytes.data(), bytes.size());
+    auto again  = load_image(filename);
+    REQUIRE(loaded.width == 7);
+    REQUIRE(loaded.height == 5);
+    CHECK(loaded.pixels.size() == again.pixels.size());
+    for (size_t idx = 0; idx < loaded.pixels.size(); idx++)
+      CHECK(equal_pixels(loaded.pixels[idx], again.pixels[idx]));
+  }
+  // A PNG named .jpg is read by its content, as before.
+  auto png   = dir + "/gradient.png";
+  auto bytes = read_bytes(png);
+  CHECK(load_image_from_memory("misnamed.jpg", bytes.data(), bytes.size())
+            .width == 7);
+  CHECK(error_of([&] { load_image_from_memory("x.png", bytes.data(), 0); }) ==
+        "x.png: file is empty");
+}
+
+TEST_CASE("image io rejects every truncation of each format cleanly") {
+  auto dir = make_test_dir("truncations");
+  for (auto ext : {".png", ".jpg", ".hdr", ".exr", ".tga", ".bmp"}) {
+    auto filename = dir + "/gradient" + ext;
+    save_image(filename, make_gradient(9, 9));
+    auto bytes = read_bytes(filename);
+    // Cut at every byte: an image or an io_error, never a crash or a hang
+    // (libjpeg pads a truncated JPEG with grey, so that one loads).
+    for (size_t size = 1; size < bytes.size(); size++) {
+      CAPTURE(size);
+      try {
+        load_image_from_memory(filename, bytes.data(), size);
+      } catch (const io_error& error) {
+        CHECK(starts_with(error.what(), filename + ": "));
+      }
+    }
+  }
+}
+
 }  // namespace implicit

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <new>
 #include <set>
 
 #include "../util/error.h"
@@ -151,6 +152,12 @@ struct checked_sax {
     return dom.binary(value);
   }
   bool start_object(std::size_t size) {
+    // Code that walks the JSON (and nlohmann's own copy and dump) recurses
+    // once per level: bound it here, with a clear message.
+    if (scopes.size() >= max_json_depth)
+      throw_json_error({filename, scope_path(scopes)},
+          scopes.empty() ? "" : scopes.back().key,
+          "nested deeper than " + std::to_string(max_json_depth) + " levels");
     scopes.push_back({true, "", 0, {}});
     return dom.start_object(size);
   }
@@ -168,6 +175,12 @@ struct checked_sax {
     return dom.end_object();
   }
   bool start_array(std::size_t size) {
+    // Code that walks the JSON (and nlohmann's own copy and dump) recurses
+    // once per level: bound it here, with a clear message.
+    if (scopes.size() >= max_json_depth)
+      throw_json_error({filename, scope_path(scopes)},
+          scopes.empty() ? "" : scopes.back().key,
+          "nested deeper than " + std::to_string(max_json_depth) + " levels");
     scopes.push_back({false, "", 0, {}});
     return dom.start_array(size);
   }
@@ -200,6 +213,9 @@ json parse_json(const std::string& text, const std::string& filename) {
     if (start != std::string::npos) problem = what.substr(start + 2);
     throw io_error(filename + ":" + std::to_string(position.x) + ":" +
                    std::to_string(position.y) + ": invalid JSON: " + problem);
+  } catch (const std::bad_alloc&) {
+    // A JSON text larger than the memory left: still an error naming it.
+    throw io_error(filename + ": out of memory parsing the JSON");
   } catch (const json::exception& error) {
     // Numbers beyond double range (1e999) are out_of_range errors without a
     // position; the message quotes the number, so look for it in the text.

@@ -50,6 +50,9 @@ std::string json_type_name(const json& value);
 // PARSING
 // -----------------------------------------------------------------------------
 
+// Objects and arrays nested deeper than this are refused by parse_json().
+inline constexpr size_t max_json_depth = 256;
+
 // Parse JSON text. Syntax errors throw `filename:line:column: invalid JSON:
 // ...`; a key repeated in one object throws (nlohmann would silently keep the
 // last value).

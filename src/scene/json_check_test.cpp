@@ -139,3 +139,20 @@ TEST_CASE("scene_io json typed reading") {
   CHECK(json_message(top, "", "bad") == "f.json: bad");
   CHECK(json_message(top, "k", "bad") == "f.json: k: bad");
 }
+
+TEST_CASE("scene_io json nesting is bounded") {
+  auto nested = [](size_t depth) {
+    return std::string(depth, '[') + std::string(depth, ']');
+  };
+  CHECK(error_of([&] { parse_json(nested(max_json_depth), "f.json"); }) ==
+        "no error");
+  auto error = error_of([&] { parse_json(nested(100000), "f.json"); });
+  CHECK(error.find("f.json: ") == 0);
+  CHECK(error.find("nested deeper than 256 levels") != std::string::npos);
+  auto objects = std::string{};
+  for (auto i = 0; i < 300; i++) objects += "{\"a\": ";
+  objects += "1" + std::string(300, '}');
+  error = error_of([&] { parse_json(objects, "g.json"); });
+  CHECK(error.find("g.json: a.a.a.") == 0);
+  CHECK(error.find("nested deeper than 256 levels") != std::string::npos);
+}

@@ -72,6 +72,16 @@ std::string token_excerpt(const char* begin, const char* end);
 
 // Register OpenVDB's types, once per process (thread-safe).
 void init_openvdb();
+// Check a .vdb file as OpenVDB would read it, every count and length
+// against the bytes that follow (sdf_grid_vdb_check.cpp); returns the bytes
+// to hand OpenVDB: the file with only its float grids, without delayed-load
+// metadata. Throws io_error naming the file and the byte offset.
+std::string check_vdb_file(
+    const std::string& filename, const char* data, size_t size);
+// Dense samples a .vdb file may expand to per byte of the file: a level
+// set's narrow band holds far more than this, while a tiny file with two
+// far-apart voxels can not make us allocate gigabytes.
+inline constexpr int64_t vdb_max_samples_per_byte = int64_t{1} << 16;
 // Load the first float level set of a .vdb file as a dense grid.
 grid_data load_vdb_grid(const std::string& filename);
 // Save a grid as a float level set.

@@ -15,6 +15,7 @@
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <new>
 #include <vector>
 
 #include "../util/error.h"
@@ -466,13 +467,19 @@ static void save_mitsuba(const std::string& filename, const grid_data& grid) {
 
 grid_data load_grid(const std::string& filename, grid_format format) {
   auto grid = grid_data{};
-  switch (format) {
-    case grid_format::sdfgen: grid = load_sdfgen(filename); break;
-    case grid_format::skanti: grid = load_skanti(filename); break;
-    case grid_format::vdb: grid = load_vdb_grid(filename); break;
-    case grid_format::mitsuba: grid = load_mitsuba(filename); break;
+  try {
+    switch (format) {
+      case grid_format::sdfgen: grid = load_sdfgen(filename); break;
+      case grid_format::skanti: grid = load_skanti(filename); break;
+      case grid_format::vdb: grid = load_vdb_grid(filename); break;
+      case grid_format::mitsuba: grid = load_mitsuba(filename); break;
+    }
+    update_grid_accel(grid);
+  } catch (const std::bad_alloc&) {
+    // Sizes are checked against the file size and the grid budget, so this
+    // is a grid larger than the memory left: still an error naming the file.
+    throw_io_error(filename, "out of memory loading the grid");
   }
-  update_grid_accel(grid);
   return grid;
 }
 

@@ -353,6 +353,60 @@ TEST_CASE("grid io refuses bad OpenVDB files") {
       "cut.vdb", bytes.substr(0, bytes.size() - 10), f, "truncated or corrupt");
 }
 
+// Overwrite a little-endian uint32 of a file's bytes.
+void put_u32(std::string& bytes, size_t offset, uint32_t value) {
+  std::memcpy(&bytes[offset], &value, 4);
+}
+
+TEST_CASE("grid io checks OpenVDB length fields before OpenVDB reads them") {
+  auto f    = grid_format::vdb;
+  auto grid = make_grid({3, 3, 3}, 0.5f, {0, 0, 0}, -1);
+  save_grid(temp_path("lengths.vdb"), grid, f);
+  auto good = read_file(temp_path("lengths.vdb"));
+  // Magic 8, version 4, library version 8, offsets flag 1, UUID 36 bytes;
+  // then the file metadata count (0), the grid count and the first grid's
+  // name length.
+  constexpr size_t file_meta = 57, grid_count = 61, name_length = 65;
+  uint32_t         value = 0;
+  std::memcpy(&value, good.data() + file_meta, 4);
+  REQUIRE(value == 0);
+  struct patch {
+    size_t      offset = 0;
+    uint32_t    value  = 0;
+    std::string error  = "";
+  };
+  for (auto& [offset, patched, what] : std::vector<patch>{
+           {8, 221, "byte 12: file format version 221 (supported: 222 to"},
+           {file_meta, 0x10000000,
+               "file metadata count 268435456 does not fit in the file"},
+           {grid_count, 0x7fffffff,
+               "grid count 2147483647 does not fit in the file"},
+           {name_length, 0xfffffff0,
+               "grid name (4294967280 bytes) runs past the end"}}) {
+    auto bytes = good;
+    put_u32(bytes, offset, patched);
+    check_refused("patched.vdb", bytes, f, what);
+  }
+  // Corrupt every 4 bytes of the header and descriptor, and a sample of the
+  // tree, with large and negative lengths: an error or a grid, never a
+  // crash, a hang or an allocation the file can not back.
+  for (size_t offset = 0; offset + 4 <= good.size();
+       offset += offset < 256 ? 1 : 61) {
+    for (auto patched : {0xffffffffu, 0x7fffffffu, 0x80000000u}) {
+      auto bytes = good;
+      put_u32(bytes, offset, patched);
+      write_file(temp_path("corrupt.vdb"), bytes);
+      CAPTURE(offset);
+      CAPTURE(patched);
+      try {
+        load_grid(temp_path("corrupt.vdb"), f);
+      } catch (const io_error&) {
+        // The expected outcome.
+      }
+    }
+  }
+}
+
 TEST_CASE("grid io skanti matrix order is detected on the shared samples") {
   IMPLICIT_SKIP_WITHOUT_SHARED("sample grids; round trips cover skanti");
   auto col =

@@ -50,22 +50,23 @@ grid_data load_vdb_grid(const std::string& filename) {
   // Read through a stream that throws on a short read: io::File ignores
   // them, so a truncated file would load with garbage voxels. Without
   // delayed loading, since that copies the stream to a temporary file.
-  // OpenVDB itself trusts the length fields it reads (util/Name.h
-  // readString allocates the length it finds), so a corrupt, not truncated,
-  // file can make it allocate up to 4 GiB before it fails; we can not check
-  // inside the library.
-  auto file  = mapped_file{filename};
-  auto grids = openvdb::GridPtrVecPtr{};
+  // OpenVDB trusts the length fields it reads, so it only gets the bytes
+  // that check_vdb_file() has walked.
+  auto file    = mapped_file{filename};
+  auto checked = check_vdb_file(filename, file.data, file.size);
+  auto grids   = openvdb::GridPtrVecPtr{};
   try {
-    auto stream = std::istringstream(std::string(file.data, file.size));
+    auto stream = std::istringstream(checked);
     stream.exceptions(std::ios::failbit | std::ios::badbit);
     grids = openvdb::io::Stream(stream, false).getGrids();
   } catch (const std::ios_base::failure&) {
     throw_io_error(filename,
         "not a readable OpenVDB file: truncated or corrupt "
         "(a read ran past the end)");
+  } catch (const std::bad_alloc&) {
+    throw;
   } catch (const std::exception& error) {
-    // OpenVDB throws its own exceptions, and bad_alloc for garbage sizes.
+    // OpenVDB throws its own exceptions (e.g. corrupt compressed data).
     throw_io_error(
         filename, std::string("not a readable OpenVDB file: ") + error.what());
   }
@@ -96,6 +97,13 @@ grid_data load_vdb_grid(const std::string& filename) {
   auto dim   = box.dim();
   auto error = check_grid_dims(dim.x(), dim.y(), dim.z());
   if (!error.empty()) throw_io_error(filename, name + "active box " + error);
+  auto samples = (int64_t)dim.x() * dim.y() * dim.z();
+  if (samples / vdb_max_samples_per_byte > (int64_t)file.size)
+    throw_io_error(filename, name + "active box " + std::to_string(dim.x()) +
+                                 "x" + std::to_string(dim.y()) + "x" +
+                                 std::to_string(dim.z()) +
+                                 " is too large for a file of " +
+                                 std::to_string(file.size) + " bytes");
 
   auto grid    = grid_data{};
   grid.dims    = {(int)dim.x(), (int)dim.y(), (int)dim.z()};

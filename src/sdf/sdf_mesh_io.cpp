@@ -5,6 +5,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <new>
 #include <string_view>
 #include <vector>
 
@@ -341,6 +342,9 @@ static mesh_data load_ply(const std::string& filename) {
       throw_io_error(filename, "element " + element.name + ": " +
                                    std::to_string(element.count) +
                                    " elements do not fit in the file");
+    // An element without properties takes no bytes, whatever its count (a
+    // count of 9e18 would otherwise loop for ever): there is nothing to read.
+    if (element.properties.empty()) continue;
     auto is_vertex = element.name == "vertex", is_face = element.name == "face";
     int  xyz[3]  = {-1, -1, -1};
     auto indices = -1;
@@ -376,7 +380,7 @@ static mesh_data load_ply(const std::string& filename) {
                                        std::to_string(count) +
                                        " does not fit in the file");
         if (i == indices) polygon.clear();
-        for (auto n = 0; n < (int)count; n++) {
+        for (auto n = int64_t{0}; n < (int64_t)count; n++) {
           auto value = read_ply_value(r, p.type);
           if (i == indices) {
             if (!(value >= 0) || value >= (double)mesh.positions.size())
@@ -439,8 +443,14 @@ static void save_ply(const std::string& filename, const mesh_data& mesh) {
 
 mesh_data load_mesh(const std::string& filename) {
   auto ext = path_extension(filename);
-  if (ext == ".obj") return load_obj(filename);
-  if (ext == ".ply") return load_ply(filename);
+  try {
+    if (ext == ".obj") return load_obj(filename);
+    if (ext == ".ply") return load_ply(filename);
+  } catch (const std::bad_alloc&) {
+    // Counts are checked against the file size, so this is a file larger
+    // than the memory left: still an error that names it.
+    throw_io_error(filename, "out of memory loading the mesh");
+  }
   throw_io_error(
       filename, "unknown mesh extension '" + ext + "' (use .obj or .ply)");
 }

@@ -258,3 +258,22 @@ TEST_CASE("grid mesh loads the shared bunny") {
   auto bounds = mesh_bounds(mesh);
   CHECK(bounds.max.y == doctest::Approx(0.16208f).epsilon(1e-4).scale(0));
 }
+
+TEST_CASE("grid mesh PLY elements without properties take no time") {
+  // A fuzz finding (issue 12): no properties and a count of 9e18 skipped
+  // the size check, and the loader looped over the count for ever.
+  auto mesh = load_mesh(std::string(IMPLICIT_SOURCE_DIR) +
+                        "/tests/data/ply_empty_element_huge_count.ply");
+  CHECK(mesh.positions.empty());
+  CHECK(mesh.triangles.empty());
+  auto ascii = std::string{
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement nothing "
+      "9000000000000000000\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"};
+  write_file(temp_path("empty_element.ply"), ascii);
+  auto triangle = load_mesh(temp_path("empty_element.ply"));
+  CHECK(triangle.positions.size() == 3);
+  CHECK(triangle.triangles.size() == 1);
+}
