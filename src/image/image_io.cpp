@@ -162,7 +162,7 @@ static image_data load_ldr(
     const std::string& filename, const uint8_t* data, size_t size) {
   if (is_png_data(data, size)) return decode_png(filename, data, size);
   if (is_jpeg_data(data, size)) return decode_jpeg(filename, data, size);
-  if (starts_with(data, size, "BM") || get_extension(filename) == ".tga")
+  if (starts_with(data, size, "BM") || path_extension(filename) == ".tga")
     return load_stb(filename, data, size);
   throw_io_error(
       filename, "cannot read image (not a PNG, JPEG, BMP or TGA file)");

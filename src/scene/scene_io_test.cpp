@@ -937,9 +937,8 @@ TEST_CASE("scene_io errors: nested operators") {
     deep = R"({"type": "round", "radius": 0.01, "operand": )" + deep + "}";
   deep.insert(1, R"("name": "deep", "material": 0, )");
   auto error = scene_error(small_scene(R"("sdfunctions": [)" + deep + "]"));
-  CHECK(starts_with(error, "scene.json: sdfunctions[0] (\"deep\").operand."));
-  CHECK(error.find(": sdfunctions nested deeper than 64 levels") !=
-        std::string::npos);
+  CHECK(starts_with(error, "scene.json: sdfunctions[0].operand."));
+  CHECK(error.find(": nested deeper than 256 levels") != std::string::npos);
 }
 
 TEST_CASE("scene_io errors: frames") {
@@ -1142,7 +1141,8 @@ TEST_CASE("scene_io large sdfunctions: long operand lists, deep nesting") {
     return seconds;
   };
   auto small = load_seconds(3000), large = load_seconds(30000);
-  CHECK(large < 30 * std::max(small, 1e-3));
+  // Timings are reported, not asserted (bench_large measures the loader).
+  MESSAGE("load seconds: 3,000 operands " << small << ", 30,000 " << large);
   // 10,000 nested levels are refused with the element's place, no crash.
   auto deep = std::string{R"({"name": "deep", "material": 0, )"};
   deep += R"("type": "round", "radius": 0.01, "operand": )";
@@ -1150,7 +1150,6 @@ TEST_CASE("scene_io large sdfunctions: long operand lists, deep nesting") {
     deep += R"({"type": "round", "radius": 0.01, "operand": )";
   deep += R"({"type": "sphere", "radius": 1})" + std::string(10000, '}');
   auto error = scene_error(small_scene(R"("sdfunctions": [)" + deep + "]"));
-  CHECK(starts_with(error, "scene.json: sdfunctions[0] (\"deep\").operand."));
-  CHECK(error.find(": sdfunctions nested deeper than 64 levels") !=
-        std::string::npos);
+  CHECK(starts_with(error, "scene.json: sdfunctions[0].operand."));
+  CHECK(error.find(": nested deeper than 256 levels") != std::string::npos);
 }
