@@ -35,20 +35,73 @@ static vec3f box_face_point(vec3f s, int face, vec2f uv) {
   return p;
 }
 
-// Environment texel cdf weighted by max(texel) * sin(theta) (Yocto/GL).
-static void make_environment_cdf(const image_data& image, trace_light& light) {
+// Sampling weight of environment texel (i,j): its largest channel times
+// sin(theta) (Yocto/GL); negative or non-finite texels weigh nothing. The
+// table is built from these values and pdfs recompute them, so both agree.
+static float texel_weight(
+    const image_data& image, const trace_light& light, int i, int j) {
+  auto& texel = pixel(image, i, j);
+  auto  weight =
+      std::max(texel.x, std::max(texel.y, texel.z)) * light.sin_theta[j];
+  return (std::isfinite(weight) && weight > 0) ? weight : 0;
+}
+
+// Alias table over the texels of a lat-long image.
+static void make_environment_table(
+    const image_data& image, trace_light& light) {
   light.width  = image.width;
   light.height = image.height;
-  light.cdf.resize((size_t)image.width * image.height);
-  auto total = 0.0f;
-  for (auto j = 0; j < image.height; j++) {
-    auto sin_theta = std::sin((j + 0.5f) * pif / image.height);
-    for (auto i = 0; i < image.width; i++) {
-      auto texel = pixel(image, i, j);
-      total += std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
-      light.cdf[(size_t)j * image.width + i] = total;
+  light.sin_theta.resize(image.height);
+  for (auto j = 0; j < image.height; j++)
+    light.sin_theta[j] = std::sin((j + 0.5f) * pif / image.height);
+  auto weights = std::vector<float>((size_t)image.width * image.height);
+  for (auto j = 0; j < image.height; j++)
+    for (auto i = 0; i < image.width; i++)
+      weights[(size_t)j * image.width + i] = texel_weight(image, light, i, j);
+  light.texels = make_alias_table(weights);
+}
+
+// Flux of a light, up to the factor common to all: pi * area * radiance for
+// shapes; for environments the flux through a disk of the scene's radius,
+// pi r^2 * integral of the radiance over directions (pbrt's power light
+// sampler). Radiance is the largest channel, as for texels.
+static float light_power(const scene_data& scene, const accel_data& accel,
+    const trace_light& light) {
+  switch (light.shape) {
+    case light_shape::box:
+    case light_shape::sphere: {
+      auto& object = accel.objects[light.object];
+      return pif * light.area * max(scene.materials[object.material].emission);
+    }
+    case light_shape::environment: {
+      auto radius = accel.size / 2;
+      if (!(radius > 0) || !std::isfinite(radius)) radius = 1;
+      // Texels cover (2 pi / width) (pi / height) sin(theta) steradians.
+      auto  integral    = light.texels.entries.empty()
+                              ? 4 * pif
+                              : (float)(light.texels.total * 2 * pif * pif /
+                                    ((double)light.width * light.height));
+      auto& environment = scene.environments[light.environment];
+      return pif * radius * radius * integral * max(environment.emission);
     }
   }
+  return 0;
+}
+
+// The cdf that picks lights by power; uniform when the powers do not sum to
+// a positive finite number.
+static std::vector<float> make_pick_cdf(const scene_data& scene,
+    const accel_data& accel, const std::vector<trace_light>& lights) {
+  auto cdf = std::vector<float>(lights.size());
+  auto sum = 0.0f;
+  for (size_t i = 0; i < lights.size(); i++) {
+    auto power = light_power(scene, accel, lights[i]);
+    sum += (std::isfinite(power) && power > 0) ? power : 0;
+    cdf[i] = sum;
+  }
+  if (!(sum > 0) || !std::isfinite(sum))
+    for (size_t i = 0; i < lights.size(); i++) cdf[i] = (float)(i + 1);
+  return cdf;
 }
 
 lights_data make_lights(const scene_data& scene, const accel_data& accel) {
@@ -86,11 +139,12 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
     light.environment = i;
     auto texture      = environment.emission_tex;
     if (texture >= 0 && texture < (int)scene.textures.size()) {
-      make_environment_cdf(scene.textures[texture].image, light);
-      if (light.cdf.back() <= 0) continue;
+      make_environment_table(scene.textures[texture].image, light);
+      if (light.texels.entries.empty()) continue;
     }
-    lights.lights.push_back(light);
+    lights.lights.push_back(std::move(light));
   }
+  lights.pick = make_pick_cdf(scene, accel, lights.lights);
   return lights;
 }
 
@@ -101,7 +155,7 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
 vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, vec3f position, float rl, float rel, vec2f ruv) {
   if (lights.lights.empty()) return {0, 0, 0};
-  auto& light = lights.lights[sample_uniform((int)lights.lights.size(), rl)];
+  auto& light = lights.lights[sample_discrete(lights.pick, rl)];
   switch (light.shape) {
     case light_shape::box: {
       auto& object = accel.objects[light.object];
@@ -120,10 +174,11 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     }
     case light_shape::environment: {
       auto& environment = scene.environments[light.environment];
-      if (light.cdf.empty())
+      if (light.texels.entries.empty())
         return transform_direction(environment.frame, sample_sphere(ruv));
-      auto idx = sample_discrete(light.cdf, rel);
-      auto uv  = vec2f{((idx % light.width) + ruv.x) / light.width,
+      auto u   = ruv.x;
+      auto idx = sample_alias(light.texels, rel, u);
+      auto uv  = vec2f{((idx % light.width) + u) / light.width,
           ((idx / light.width) + ruv.y) / light.height};
       return transform_direction(environment.frame, latlong_direction(uv));
     }
@@ -174,15 +229,18 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
   if (lights.lights.empty()) return 0;
   auto pdf = 0.0f;
   auto ray = ray3f{position, direction, 0, flt_max};
-  for (auto& light : lights.lights) {
+  for (auto index = 0; index < (int)lights.lights.size(); index++) {
+    auto& light  = lights.lights[index];
+    auto  picked = sample_discrete_pdf(lights.pick, index);
     switch (light.shape) {
       case light_shape::box:
       case light_shape::sphere:
-        pdf += shape_light_pdf(accel.objects[light.object], light, ray);
+        pdf +=
+            picked * shape_light_pdf(accel.objects[light.object], light, ray);
         break;
       case light_shape::environment: {
-        if (light.cdf.empty()) {
-          pdf += 1 / (4 * pif);
+        if (light.texels.entries.empty()) {
+          pdf += picked / (4 * pif);
           break;
         }
         auto& environment = scene.environments[light.environment];
@@ -190,16 +248,18 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
         auto  uv = latlong_uv(wl);
         auto  sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
         auto  i         = clamp((int)(uv.x * light.width), 0, light.width - 1);
-        auto  j    = clamp((int)(uv.y * light.height), 0, light.height - 1);
-        auto  prob = sample_discrete_pdf(light.cdf, j * light.width + i);
+        auto  j     = clamp((int)(uv.y * light.height), 0, light.height - 1);
+        auto& image = scene.textures[environment.emission_tex].image;
+        auto  prob =
+            (float)(texel_weight(image, light, i, j) / light.texels.total);
         if (sin_theta > 0)
-          pdf +=
-              prob * light.width * light.height / (2 * pif * pif * sin_theta);
+          pdf += picked * prob * light.width * light.height /
+                 (2 * pif * pif * sin_theta);
         break;
       }
     }
   }
-  return pdf / lights.lights.size();
+  return pdf;
 }
 
 }  // namespace implicit

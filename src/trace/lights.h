@@ -3,39 +3,49 @@
 // Emissive objects whose shape can be sampled directly (boxes and spheres
 // placed by rigid frames, including the seed's flat box lights) and
 // environments (constant, or lat-long textures importance sampled by texel
-// luminance times sin(theta)). Other emitters are not in this list: BSDF
-// rays still find them, and the mixture pdf below stays correct because it
-// only describes what sample_lights() can produce.
+// luminance times sin(theta) through an alias table). One light is chosen
+// per sample in proportion to its power, so a small bright lamp is not
+// sampled as often as the sky that surrounds the whole scene. Other emitters
+// are not in this list: BSDF rays still find them, and the mixture pdf below
+// stays correct because it only describes what sample_lights() can produce.
 #pragma once
 
 #include <vector>
 
+#include "../math/alias.h"
 #include "accel.h"
 
 namespace implicit {
 
 enum class light_shape { box, sphere, environment };
 
-// One light. Boxes keep a cdf over their six faces (areas); environments a
-// cdf over texels.
+// One light. Boxes keep a cdf over their six faces (areas); textured
+// environments an alias table over texels, whose weight is recomputed from
+// the texture and `sin_theta` (per row) when a pdf is asked for.
 struct trace_light {
   light_shape        shape       = light_shape::box;
   int                object      = invalidid;  // in accel_data::objects
   int                environment = invalidid;  // in scene_data::environments
   float              area        = 0;
+  float              power       = 0;  // emitted flux, for choosing lights
   std::vector<float> cdf         = {};
+  alias_table        texels      = {};
+  std::vector<float> sin_theta   = {};       // of each texel row's centre
   int                width = 0, height = 0;  // environment texture size
 };
 
+// The lights and the cdf that picks one (by power).
 struct lights_data {
   std::vector<trace_light> lights = {};
+  std::vector<float>       pick   = {};
 };
 
 // Collect the lights of a scene.
 lights_data make_lights(const scene_data& scene, const accel_data& accel);
 
-// Sample a direction toward the lights from `position` (one light picked
-// uniformly by `rl`, a face or texel by `rel`, a point by `ruv`).
+// Sample a direction toward the lights from `position` (one light picked by
+// `rl` in proportion to its power, a face or texel by `rel`, a point by
+// `ruv`).
 vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, vec3f position, float rl, float rel, vec2f ruv);
 
