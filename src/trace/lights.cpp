@@ -35,30 +35,39 @@ static vec3f box_face_point(vec3f s, int face, vec2f uv) {
   return p;
 }
 
-// Sampling weight of environment texel (i,j): its largest channel times
-// sin(theta) (Yocto/GL); negative or non-finite texels weigh nothing. The
-// table is built from these values and pdfs recompute them, so both agree.
-static float texel_weight(
-    const image_data& image, const trace_light& light, int i, int j) {
-  auto& texel = pixel(image, i, j);
-  auto  weight =
-      std::max(texel.x, std::max(texel.y, texel.z)) * light.sin_theta[j];
-  return (std::isfinite(weight) && weight > 0) ? weight : 0;
-}
+// Most cells of an environment's sampling table (512x256).
+static constexpr int64_t max_environment_cells = int64_t{1} << 17;
 
-// Alias table over the texels of a lat-long image.
+// Sampling table of a lat-long image: cells of f x f texels, f the smallest
+// power of two that keeps the cell count within max_environment_cells. A
+// cell weighs the sum of its texels' largest channel times sin(theta)
+// (Yocto/GL's texel weight); negative or non-finite texels weigh nothing.
 static void make_environment_table(
     const image_data& image, trace_light& light) {
-  light.width  = image.width;
-  light.height = image.height;
-  light.sin_theta.resize(image.height);
-  for (auto j = 0; j < image.height; j++)
-    light.sin_theta[j] = std::sin((j + 0.5f) * pif / image.height);
-  auto weights = std::vector<float>((size_t)image.width * image.height);
-  for (auto j = 0; j < image.height; j++)
-    for (auto i = 0; i < image.width; i++)
-      weights[(size_t)j * image.width + i] = texel_weight(image, light, i, j);
-  light.texels = make_alias_table(weights);
+  auto f = 1;
+  while ((int64_t)((image.width + f - 1) / f) * ((image.height + f - 1) / f) >
+         max_environment_cells)
+    f *= 2;
+  light.width  = (image.width + f - 1) / f;
+  light.height = (image.height + f - 1) / f;
+  auto sums    = std::vector<double>((size_t)light.width * light.height, 0.0);
+  auto total   = 0.0;
+  for (auto j = 0; j < image.height; j++) {
+    auto sin_theta = std::sin((j + 0.5f) * pif / image.height);
+    auto row       = sums.data() + (size_t)(j / f) * light.width;
+    for (auto i = 0; i < image.width; i++) {
+      auto& texel  = pixel(image, i, j);
+      auto  weight = std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
+      if (!(std::isfinite(weight) && weight > 0)) continue;
+      row[i / f] += weight;
+      total += weight;
+    }
+  }
+  // Texels cover (2 pi / width) (pi / height) sin(theta) steradians.
+  light.integral =
+      (float)(total * 2 * pif * pif / ((double)image.width * image.height));
+  light.weights.assign(sums.begin(), sums.end());
+  light.cells = make_alias_table(light.weights);
 }
 
 // Flux of a light, up to the factor common to all: pi * area * radiance for
@@ -76,11 +85,7 @@ static float light_power(const scene_data& scene, const accel_data& accel,
     case light_shape::environment: {
       auto radius = accel.size / 2;
       if (!(radius > 0) || !std::isfinite(radius)) radius = 1;
-      // Texels cover (2 pi / width) (pi / height) sin(theta) steradians.
-      auto  integral    = light.texels.entries.empty()
-                              ? 4 * pif
-                              : (float)(light.texels.total * 2 * pif * pif /
-                                    ((double)light.width * light.height));
+      auto  integral = light.cells.entries.empty() ? 4 * pif : light.integral;
       auto& environment = scene.environments[light.environment];
       return pif * radius * radius * integral * max(environment.emission);
     }
@@ -140,7 +145,7 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
     auto texture      = environment.emission_tex;
     if (texture >= 0 && texture < (int)scene.textures.size()) {
       make_environment_table(scene.textures[texture].image, light);
-      if (light.texels.entries.empty()) continue;
+      if (light.cells.entries.empty()) continue;
     }
     lights.lights.push_back(std::move(light));
   }
@@ -174,10 +179,10 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     }
     case light_shape::environment: {
       auto& environment = scene.environments[light.environment];
-      if (light.texels.entries.empty())
+      if (light.cells.entries.empty())
         return transform_direction(environment.frame, sample_sphere(ruv));
       auto u   = ruv.x;
-      auto idx = sample_alias(light.texels, rel, u);
+      auto idx = sample_alias(light.cells, rel, u);
       auto uv  = vec2f{((idx % light.width) + u) / light.width,
           ((idx / light.width) + ruv.y) / light.height};
       return transform_direction(environment.frame, latlong_direction(uv));
@@ -239,7 +244,7 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
             picked * shape_light_pdf(accel.objects[light.object], light, ray);
         break;
       case light_shape::environment: {
-        if (light.texels.entries.empty()) {
+        if (light.cells.entries.empty()) {
           pdf += picked / (4 * pif);
           break;
         }
@@ -248,10 +253,9 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
         auto  uv = latlong_uv(wl);
         auto  sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
         auto  i         = clamp((int)(uv.x * light.width), 0, light.width - 1);
-        auto  j     = clamp((int)(uv.y * light.height), 0, light.height - 1);
-        auto& image = scene.textures[environment.emission_tex].image;
-        auto  prob =
-            (float)(texel_weight(image, light, i, j) / light.texels.total);
+        auto  j    = clamp((int)(uv.y * light.height), 0, light.height - 1);
+        auto  prob = (float)(light.weights[(size_t)j * light.width + i] /
+                            light.cells.total);
         if (sin_theta > 0)
           pdf += picked * prob * light.width * light.height /
                  (2 * pif * pif * sin_theta);

@@ -215,3 +215,27 @@ TEST_CASE("lights: a sky and a lamp share the picks by power") {
     CHECK(integrate_pdf(scene, accel, lights, position, 1200) ==
           doctest::Approx(1.0).epsilon(0.02));
 }
+
+TEST_CASE("lights: large environments are sampled by cells of texels") {
+  // 1030x500 texels need 2x2 cells (515x250), the last ones partial.
+  auto  scene = environment_scene();
+  auto& image = scene.textures[0].image;
+  image       = make_image(1030, 500);
+  for (auto j = 0; j < image.height; j++)
+    for (auto i = 0; i < image.width; i++)
+      pixel(image, i, j) = {0.1f + (i % 7) * 0.1f, 0.2f, 0.3f, 1};
+  pixel(image, 1029, 499) = {80, 80, 80, 1};
+  auto accel              = make_accel(scene, accel_type::bvh, {});
+  auto lights             = make_lights(scene, accel);
+  REQUIRE(lights.lights.size() == 1);
+  CHECK(lights.lights[0].width == 515);
+  CHECK(lights.lights[0].height == 250);
+  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}, 1000) ==
+        doctest::Approx(1.0).epsilon(0.01));
+  auto rng = make_rng(8);
+  for (auto k = 0; k < 10000; k++) {
+    auto direction = sample_lights(
+        scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
+    REQUIRE(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction) > 0);
+  }
+}
