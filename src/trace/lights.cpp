@@ -51,7 +51,6 @@ static void make_environment_table(
   light.width  = (image.width + f - 1) / f;
   light.height = (image.height + f - 1) / f;
   auto sums    = std::vector<double>((size_t)light.width * light.height, 0.0);
-  auto total   = 0.0;
   for (auto j = 0; j < image.height; j++) {
     auto sin_theta = std::sin((j + 0.5f) * pif / image.height);
     auto row       = sums.data() + (size_t)(j / f) * light.width;
@@ -60,53 +59,10 @@ static void make_environment_table(
       auto  weight = std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
       if (!(std::isfinite(weight) && weight > 0)) continue;
       row[i / f] += weight;
-      total += weight;
     }
   }
-  // Texels cover (2 pi / width) (pi / height) sin(theta) steradians.
-  light.integral =
-      (float)(total * 2 * pif * pif / ((double)image.width * image.height));
   light.weights.assign(sums.begin(), sums.end());
   light.cells = make_alias_table(light.weights);
-}
-
-// Flux of a light, up to the factor common to all: pi * area * radiance for
-// shapes; for environments the flux through a disk of the scene's radius,
-// pi r^2 * integral of the radiance over directions (pbrt's power light
-// sampler). Radiance is the largest channel, as for texels.
-static float light_power(const scene_data& scene, const accel_data& accel,
-    const trace_light& light) {
-  switch (light.shape) {
-    case light_shape::box:
-    case light_shape::sphere: {
-      auto& object = accel.objects[light.object];
-      return pif * light.area * max(scene.materials[object.material].emission);
-    }
-    case light_shape::environment: {
-      auto radius = accel.size / 2;
-      if (!(radius > 0) || !std::isfinite(radius)) radius = 1;
-      auto  integral = light.cells.entries.empty() ? 4 * pif : light.integral;
-      auto& environment = scene.environments[light.environment];
-      return pif * radius * radius * integral * max(environment.emission);
-    }
-  }
-  return 0;
-}
-
-// The cdf that picks lights by power; uniform when the powers do not sum to
-// a positive finite number.
-static std::vector<float> make_pick_cdf(const scene_data& scene,
-    const accel_data& accel, const std::vector<trace_light>& lights) {
-  auto cdf = std::vector<float>(lights.size());
-  auto sum = 0.0f;
-  for (size_t i = 0; i < lights.size(); i++) {
-    auto power = light_power(scene, accel, lights[i]);
-    sum += (std::isfinite(power) && power > 0) ? power : 0;
-    cdf[i] = sum;
-  }
-  if (!(sum > 0) || !std::isfinite(sum))
-    for (size_t i = 0; i < lights.size(); i++) cdf[i] = (float)(i + 1);
-  return cdf;
 }
 
 lights_data make_lights(const scene_data& scene, const accel_data& accel) {
@@ -149,7 +105,6 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
     }
     lights.lights.push_back(std::move(light));
   }
-  lights.pick = make_pick_cdf(scene, accel, lights.lights);
   return lights;
 }
 
@@ -160,7 +115,7 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
 vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, vec3f position, float rl, float rel, vec2f ruv) {
   if (lights.lights.empty()) return {0, 0, 0};
-  auto& light = lights.lights[sample_discrete(lights.pick, rl)];
+  auto& light = lights.lights[sample_uniform((int)lights.lights.size(), rl)];
   switch (light.shape) {
     case light_shape::box: {
       auto& object = accel.objects[light.object];
@@ -236,7 +191,7 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
   auto ray = ray3f{position, direction, 0, flt_max};
   for (auto index = 0; index < (int)lights.lights.size(); index++) {
     auto& light  = lights.lights[index];
-    auto  picked = sample_discrete_pdf(lights.pick, index);
+    auto  picked = sample_uniform_pdf((int)lights.lights.size());
     switch (light.shape) {
       case light_shape::box:
       case light_shape::sphere:
