@@ -14,6 +14,7 @@
 
 #include "sdf_grid.h"
 
+#include <algorithm>
 #include <cassert>
 
 #include "../util/error.h"
@@ -38,6 +39,8 @@ std::string check_grid_dims(int64_t nx, int64_t ny, int64_t nz) {
   return "";
 }
 
+static void voxel_corners(const grid_data& grid, vec3i cell, float v[8]);
+
 // Brick count along an axis of `samples` samples.
 static int brick_count(int samples) {
   return (samples - 1 + grid_brick_size - 1) / grid_brick_size;
@@ -46,12 +49,14 @@ static int brick_count(int samples) {
 void update_grid_accel(grid_data& grid) {
   grid.bricks = {0, 0, 0};
   grid.brick_ranges.clear();
+  grid.voxel_masks.clear();
   auto& dims = grid.dims;
   if (!check_grid_dims(dims.x, dims.y, dims.z).empty()) return;
   if ((int64_t)grid.values.size() != grid_samples(dims)) return;
   grid.bricks = {brick_count(dims.x), brick_count(dims.y), brick_count(dims.z)};
   grid.brick_ranges.resize(
       (size_t)grid.bricks.x * (size_t)grid.bricks.y * (size_t)grid.bricks.z);
+  grid.voxel_masks.assign(grid.brick_ranges.size() * grid_brick_mask_words, 0);
   // A brick's voxels [8b, 8b+7] touch the samples [8b, 8b+8].
   auto index = size_t{0};
   for (auto bk = 0; bk < grid.bricks.z; bk++) {
@@ -72,6 +77,21 @@ void update_grid_accel(grid_data& grid) {
             }
           }
         }
+        // Voxel bits: the corner range of each voxel of the brick.
+        auto masks = grid.voxel_masks.data() + index * grid_brick_mask_words;
+        for (auto k = lo.z; k < hi.z; k++) {
+          for (auto j = lo.y; j < hi.y; j++) {
+            for (auto i = lo.x; i < hi.x; i++) {
+              float v[8];
+              voxel_corners(grid, {i, j, k}, v);
+              auto vmin = *std::min_element(v, v + 8);
+              auto vmax = *std::max_element(v, v + 8);
+              auto bit  = uint64_t{1} << ((i - lo.x) + 8 * (j - lo.y));
+              if (vmin < 0) masks[k - lo.z] |= bit;
+              if (vmax >= 0) masks[grid_brick_size + k - lo.z] |= bit;
+            }
+          }
+        }
         grid.brick_ranges[index++] = range;
       }
     }
@@ -89,7 +109,9 @@ bool has_grid_accel(const grid_data& grid) {
          grid.bricks.z == brick_count(dims.z) &&
          grid.brick_ranges.size() == (size_t)grid.bricks.x *
                                          (size_t)grid.bricks.y *
-                                         (size_t)grid.bricks.z;
+                                         (size_t)grid.bricks.z &&
+         grid.voxel_masks.size() ==
+             grid.brick_ranges.size() * grid_brick_mask_words;
 }
 
 grid_data make_grid(vec3i dims, float spacing, vec3f origin, float value) {
@@ -116,7 +138,8 @@ bbox3f grid_bounds(const grid_data& grid) {
 
 size_t grid_memory(const grid_data& grid) {
   return sizeof(grid_data) + grid.values.capacity() * sizeof(float) +
-         grid.brick_ranges.capacity() * sizeof(grid_brick_range);
+         grid.brick_ranges.capacity() * sizeof(grid_brick_range) +
+         grid.voxel_masks.capacity() * sizeof(uint64_t);
 }
 
 // -----------------------------------------------------------------------------
@@ -419,7 +442,7 @@ static int min_axis(float ex, float ey, float ez) {
 
 // Walk the voxels of brick `brick` over [sa, sb]; true with the hit's s.
 static bool march_brick(const grid_data& grid, const grid_march& m, vec3i brick,
-    float sa, float sb, float& s_hit, int& steps) {
+    const uint64_t* masks, float sa, float sb, float& s_hit, int& steps) {
   auto lo = vec3i{brick.x * grid_brick_size, brick.y * grid_brick_size,
       brick.z * grid_brick_size};
   auto hi = vec3i{std::min(lo.x + grid_brick_size, grid.dims.x - 1) - 1,
@@ -439,16 +462,13 @@ static bool march_brick(const grid_data& grid, const grid_march& m, vec3i brick,
                                                    : ez,
                                   sb));
     steps++;
-    float v[8];
-    voxel_corners(grid, c, v);
-    auto vmin = std::min(std::min(std::min(v[0], v[1]), std::min(v[2], v[3])),
-        std::min(std::min(v[4], v[5]), std::min(v[6], v[7])));
-    auto vmax = std::max(std::max(std::max(v[0], v[1]), std::max(v[2], v[3])),
-        std::max(std::max(v[4], v[5]), std::max(v[6], v[7])));
     // The interpolant stays within the corner range, so a voxel whose
-    // corners are all on the current side can not hold a crossing.
-    auto skip = m.inside ? vmax < 0 : vmin >= 0;
-    if (!skip) {
+    // corners are all on the current side can not hold a crossing: its mask
+    // bit is clear, and its corners are not even fetched.
+    auto word = masks[(m.inside ? grid_brick_size : 0) + (c.z - lo.z)];
+    if ((word >> ((c.x - lo.x) + 8 * (c.y - lo.y))) & 1) {
+      float v[8];
+      voxel_corners(grid, c, v);
       auto origin = m.u0 + m.du * s - vec3f{(float)c.x, (float)c.y, (float)c.z};
       auto cubic  = make_voxel_cubic(v, origin, m.du);
       auto s_in   = 0.0f;
@@ -477,21 +497,23 @@ static bool march_grid(
       clamp((int)std::floor(m.u0.z / grid_brick_size), 0, nb.z - 1)};
   auto  s = 0.0f;
   for (;;) {
-    auto ex      = cell_exit(m, b.x, grid_brick_size, 0),
-         ey      = cell_exit(m, b.y, grid_brick_size, 1),
-         ez      = cell_exit(m, b.z, grid_brick_size, 2);
-    auto  axis   = min_axis(ex, ey, ez);
-    auto  s_exit = std::max(s, std::min(axis == 0   ? ex
-                                        : axis == 1 ? ey
-                                                    : ez,
-                                   m.length));
-    auto& range =
-        grid.brick_ranges[(size_t)b.x +
-                          (size_t)nb.x * ((size_t)b.y + (size_t)nb.y * b.z)];
-    auto skip = m.inside ? range.max < 0 : range.min >= 0;
+    auto ex     = cell_exit(m, b.x, grid_brick_size, 0),
+         ey     = cell_exit(m, b.y, grid_brick_size, 1),
+         ez     = cell_exit(m, b.z, grid_brick_size, 2);
+    auto axis   = min_axis(ex, ey, ez);
+    auto s_exit = std::max(s, std::min(axis == 0   ? ex
+                                       : axis == 1 ? ey
+                                                   : ez,
+                                  m.length));
+    auto brick =
+        (size_t)b.x + (size_t)nb.x * ((size_t)b.y + (size_t)nb.y * b.z);
+    auto& range = grid.brick_ranges[brick];
+    auto  skip  = m.inside ? range.max < 0 : range.min >= 0;
     if (skip) {
       steps++;
-    } else if (march_brick(grid, m, b, s, s_exit, s_hit, steps)) {
+    } else if (march_brick(grid, m, b,
+                   grid.voxel_masks.data() + brick * grid_brick_mask_words, s,
+                   s_exit, s_hit, steps)) {
       return true;
     }
     if (s_exit >= m.length) return false;

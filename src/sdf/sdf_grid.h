@@ -17,7 +17,8 @@
 // Intersection is exact: the first root of the cubic that the interpolant
 // makes along the ray inside each candidate voxel, found after skipping
 // empty space with a two-level 3D-DDA (8^3 bricks with a value range, then
-// voxels whose 8 corners can not change sign are skipped).
+// voxels whose 8 corners can not change sign are skipped by a bit mask per
+// brick, without fetching their corners).
 #pragma once
 
 #include <cstddef>
@@ -57,10 +58,18 @@ struct grid_data {
   vec3f              origin  = {0, 0, 0};  // file origin, informational only
   std::vector<float> values  = {};
 
-  // Acceleration data (update_grid_accel).
+  // Acceleration data (update_grid_accel). Each brick has
+  // grid_brick_mask_words words of voxel bits: the first half marks the
+  // voxels with a corner < 0 (a ray outside the solid may cross there), the
+  // second those with a corner >= 0 (a ray inside may leave there). Voxel
+  // (x,y,z) of a brick is bit x + 8y of word z of each half.
   vec3i                         bricks       = {0, 0, 0};
   std::vector<grid_brick_range> brick_ranges = {};
+  std::vector<uint64_t>         voxel_masks  = {};
 };
+
+// Mask words per brick: two halves of one word per voxel slice.
+inline constexpr int grid_brick_mask_words = 2 * grid_brick_size;
 
 // Sample value at integer coordinates (no bounds check beyond asserts).
 inline float grid_value(const grid_data& grid, int i, int j, int k) {

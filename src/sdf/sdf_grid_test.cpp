@@ -408,3 +408,36 @@ TEST_CASE("grid bake samples an SDF program") {
   CHECK_THROWS_AS(
       bake_grid(sdf_program{}, identity_frame, bounds, 0.1f), io_error);
 }
+
+TEST_CASE("grid voxel masks mark exactly the voxels that can hold a crossing") {
+  // Random values around 0 on a grid whose sides are not whole bricks.
+  auto rng  = make_rng(33);
+  auto grid = sample_grid(
+      {19, 10, 13}, 0.1f, [&](vec3f) { return rand1f(rng) - 0.7f; });
+  REQUIRE(has_grid_accel(grid));
+  auto nb    = grid.bricks;
+  auto value = [&](int i, int j, int k) { return grid_value(grid, i, j, k); };
+  for (auto k = 0; k < grid.dims.z - 1; k++) {
+    for (auto j = 0; j < grid.dims.y - 1; j++) {
+      for (auto i = 0; i < grid.dims.x - 1; i++) {
+        auto vmin = flt_max, vmax = flt_lowest;
+        for (auto c = 0; c < 8; c++) {
+          auto v = value(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
+          vmin   = std::min(vmin, v);
+          vmax   = std::max(vmax, v);
+        }
+        auto b = vec3i{
+            i / grid_brick_size, j / grid_brick_size, k / grid_brick_size};
+        auto brick = (size_t)b.x + (size_t)nb.x * (b.y + (size_t)nb.y * b.z);
+        auto words = grid.voxel_masks.data() + brick * grid_brick_mask_words;
+        auto bit   = (i % 8) + 8 * (j % 8);
+        INFO(i, " ", j, " ", k);
+        CHECK((bool)((words[k % 8] >> bit) & 1) == (vmin < 0));
+        CHECK((bool)((words[8 + k % 8] >> bit) & 1) == (vmax >= 0));
+      }
+    }
+  }
+  // Stale masks are not current acceleration data.
+  grid.voxel_masks.pop_back();
+  CHECK_FALSE(has_grid_accel(grid));
+}

@@ -36,20 +36,34 @@ static vec3f box_face_point(vec3f s, int face, vec2f uv) {
   return p;
 }
 
-// Environment texel cdf weighted by max(texel) * sin(theta) (Yocto/GL).
-static void make_environment_cdf(const image_data& image, trace_light& light) {
-  light.width  = image.width;
-  light.height = image.height;
-  light.cdf.resize((size_t)image.width * image.height);
-  auto total = 0.0f;
+// Most cells of an environment's sampling table (512x256).
+static constexpr int64_t max_environment_cells = int64_t{1} << 17;
+
+// Sampling table of a lat-long image: cells of f x f texels, f the smallest
+// power of two that keeps the cell count within max_environment_cells. A
+// cell weighs the sum of its texels' largest channel times sin(theta)
+// (Yocto/GL's texel weight); negative or non-finite texels weigh nothing.
+static void make_environment_table(
+    const image_data& image, trace_light& light) {
+  auto f = 1;
+  while ((int64_t)((image.width + f - 1) / f) * ((image.height + f - 1) / f) >
+         max_environment_cells)
+    f *= 2;
+  light.width  = (image.width + f - 1) / f;
+  light.height = (image.height + f - 1) / f;
+  auto sums    = std::vector<double>((size_t)light.width * light.height, 0.0);
   for (auto j = 0; j < image.height; j++) {
     auto sin_theta = std::sin((j + 0.5f) * pif / image.height);
+    auto row       = sums.data() + (size_t)(j / f) * light.width;
     for (auto i = 0; i < image.width; i++) {
-      auto texel = pixel(image, i, j);
-      total += std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
-      light.cdf[(size_t)j * image.width + i] = total;
+      auto& texel  = pixel(image, i, j);
+      auto  weight = std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
+      if (!(std::isfinite(weight) && weight > 0)) continue;
+      row[i / f] += weight;
     }
   }
+  light.weights.assign(sums.begin(), sums.end());
+  light.cells = make_alias_table(light.weights);
 }
 
 lights_data make_lights(const scene_data& scene, const accel_data& accel) {
@@ -85,10 +99,10 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
     light.environment = i;
     auto texture      = environment.emission_tex;
     if (texture >= 0 && texture < (int)scene.textures.size()) {
-      make_environment_cdf(scene.textures[texture].image, light);
-      if (light.cdf.back() <= 0) continue;
+      make_environment_table(scene.textures[texture].image, light);
+      if (light.cells.entries.empty()) continue;
     }
-    lights.lights.push_back(light);
+    lights.lights.push_back(std::move(light));
   }
   return lights;
 }
@@ -119,10 +133,11 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     }
     case light_shape::environment: {
       auto& environment = scene.environments[light.environment];
-      if (light.cdf.empty())
+      if (light.cells.entries.empty())
         return transform_direction(environment.frame, sample_sphere(ruv));
-      auto idx = sample_discrete(light.cdf, rel);
-      auto uv  = vec2f{((idx % light.width) + ruv.x) / light.width,
+      auto u   = ruv.x;
+      auto idx = sample_alias(light.cells, rel, u);
+      auto uv  = vec2f{((idx % light.width) + u) / light.width,
           ((idx / light.width) + ruv.y) / light.height};
       return transform_direction(environment.frame, latlong_direction(uv));
     }
@@ -169,15 +184,18 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
   if (lights.lights.empty()) return 0;
   auto pdf = 0.0f;
   auto ray = ray3f{position, direction, 0, flt_max};
-  for (auto& light : lights.lights) {
+  for (auto index = 0; index < (int)lights.lights.size(); index++) {
+    auto& light  = lights.lights[index];
+    auto  picked = sample_uniform_pdf((int)lights.lights.size());
     switch (light.shape) {
       case light_shape::box:
       case light_shape::sphere:
-        pdf += shape_light_pdf(accel.objects[light.object], light, ray);
+        pdf +=
+            picked * shape_light_pdf(accel.objects[light.object], light, ray);
         break;
       case light_shape::environment: {
-        if (light.cdf.empty()) {
-          pdf += 1 / (4 * pif);
+        if (light.cells.entries.empty()) {
+          pdf += picked / (4 * pif);
           break;
         }
         auto& environment = scene.environments[light.environment];
@@ -186,15 +204,16 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
         auto  sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
         auto  i         = clamp((int)(uv.x * light.width), 0, light.width - 1);
         auto  j    = clamp((int)(uv.y * light.height), 0, light.height - 1);
-        auto  prob = sample_discrete_pdf(light.cdf, j * light.width + i);
+        auto  prob = (float)(light.weights[(size_t)j * light.width + i] /
+                            light.cells.total);
         if (sin_theta > 0)
-          pdf +=
-              prob * light.width * light.height / (2 * pif * pif * sin_theta);
+          pdf += picked * prob * light.width * light.height /
+                 (2 * pif * pif * sin_theta);
         break;
       }
     }
   }
-  return pdf / lights.lights.size();
+  return pdf;
 }
 
 }  // namespace implicit

@@ -140,3 +140,78 @@ TEST_CASE(
   CHECK(lights.lights.empty());
   CHECK(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, {0, 1, 0}) == 0);
 }
+
+TEST_CASE("lights: picks and pdfs agree for two shape lights") {
+  auto scene        = scene_data{};
+  auto material     = material_data{};
+  material.emission = {5, 5, 5};
+  scene.materials.push_back(material);
+  auto box = sdf_node{};
+  box.type = sdf_type::box;
+  box.size = {0.5f, 0.4f, 1e-5f};
+  scene.sdfunctions.push_back(emitter(box, {-0.2f, 0.25f, 1.2f}));
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.3f;
+  auto center   = vec3f{1, 1, -1};
+  scene.sdfunctions.push_back(emitter(sphere, center));
+  auto accel  = make_accel(scene, accel_type::bvh, {});
+  auto lights = make_lights(scene, accel);
+  REQUIRE(lights.lights.size() == 2);
+  auto expected  = 0.5f;  // lights are picked uniformly
+  auto rng       = make_rng(21);
+  auto samples   = 100000;
+  auto to_sphere = 0;
+  auto cone      = std::sqrt(1 - 0.09f / dot(center, center));
+  // E[1 / pdf] over light samples is the solid angle the lights cover.
+  auto inverse_pdf = 0.0;
+  auto missed      = 0;
+  for (auto k = 0; k < samples; k++) {
+    auto direction = sample_lights(
+        scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
+    if (dot(direction, normalize(center)) >= cone) to_sphere++;
+    auto pdf = sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction);
+    // A point on the flat box's 10-micron rim can round to a ray that misses
+    // the box; such samples are rare and weigh nothing in a render.
+    if (pdf > 0)
+      inverse_pdf += 1 / pdf;
+    else
+      missed++;
+  }
+  CHECK(missed < samples / 1000);
+  CHECK((double)to_sphere / samples ==
+        doctest::Approx(expected).epsilon(0.01).scale(0));
+  auto covered = 0.0;
+  auto n       = 1200;
+  for (auto j = 0; j < n; j++)
+    for (auto i = 0; i < 2 * n; i++)
+      if (sample_lights_pdf(scene, accel, lights, {0, 0, 0},
+              sample_sphere({(i + 0.5f) / (2 * n), (j + 0.5f) / n})) > 0)
+        covered += 4 * pif / (2.0 * n * n);
+  CHECK(
+      inverse_pdf / samples == doctest::Approx(covered).epsilon(0.02).scale(0));
+}
+
+TEST_CASE("lights: large environments are sampled by cells of texels") {
+  // 1030x500 texels need 2x2 cells (515x250), the last ones partial.
+  auto  scene = environment_scene();
+  auto& image = scene.textures[0].image;
+  image       = make_image(1030, 500);
+  for (auto j = 0; j < image.height; j++)
+    for (auto i = 0; i < image.width; i++)
+      pixel(image, i, j) = {0.1f + (i % 7) * 0.1f, 0.2f, 0.3f, 1};
+  pixel(image, 1029, 499) = {80, 80, 80, 1};
+  auto accel              = make_accel(scene, accel_type::bvh, {});
+  auto lights             = make_lights(scene, accel);
+  REQUIRE(lights.lights.size() == 1);
+  CHECK(lights.lights[0].width == 515);
+  CHECK(lights.lights[0].height == 250);
+  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}, 1000) ==
+        doctest::Approx(1.0).epsilon(0.01));
+  auto rng = make_rng(8);
+  for (auto k = 0; k < 10000; k++) {
+    auto direction = sample_lights(
+        scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
+    REQUIRE(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction) > 0);
+  }
+}
