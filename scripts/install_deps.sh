@@ -8,7 +8,7 @@ packages=(
   nlohmann-json3-dev libstb-dev libopenexr-dev libtbb-dev
   libembree-dev libopenvdb-dev libnanovdb-dev libboost-iostreams-dev libcli11-dev
   libglfw3-dev libimgui-dev libgl-dev libgl1-mesa-dri libglx-mesa0 xvfb xauth
-  doctest-dev libbenchmark-dev
+  doctest-dev libbenchmark-dev libopenmpi-dev openmpi-bin
 )
 
 sudo=""

@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "distributed.h"
 #include "image/image_io.h"
 #include "scene/scene_io.h"
 #include "trace/trace.h"
@@ -258,13 +259,19 @@ int main(int argc, char** argv) {
           "ypathtrace"};
   auto opts = app_options{};
   add_options(app, opts);
+  auto dist = distributed_options{};  // mpirun and --turntable
+  add_distributed_options(app, dist);
   try {
     app.parse(argc, argv);
     validate_options(opts);
+    if (opts.interactive && needs_distributed(dist))
+      throw CLI::ValidationError(
+          "--interactive", "the viewer runs without mpirun and --turntable");
   } catch (const CLI::CallForHelp&) {
     std::printf("%s", app.help().c_str());
     return 0;
   } catch (const CLI::ParseError& error) {
+    if (!is_primary_process()) return 2;  // rank 0 prints it
     std::fprintf(stderr, "ypathtrace: error: %s\n\n%s", error.what(),
         app.help().c_str());
     return 2;
@@ -274,6 +281,13 @@ int main(int argc, char** argv) {
     if (opts.threads > 0)
       control = std::make_unique<tbb::global_control>(
           tbb::global_control::max_allowed_parallelism, opts.threads);
+    if (needs_distributed(dist)) {
+      dist.scene = opts.scene, dist.output = opts.output;
+      dist.camera = opts.camera, dist.params = opts.params;
+      dist.exposure = opts.exposure, dist.filmic = opts.filmic;
+      dist.savebatch = opts.savebatch, dist.quiet = opts.quiet;
+      return run_distributed(dist);
+    }
     return run(opts);
   } catch (const std::exception& error) {
     std::fprintf(stderr, "ypathtrace: error: %s\n", error.what());
