@@ -246,6 +246,9 @@ struct frame_job {
   trace_params     params     = {};
   trace_state      state      = {};
   std::vector<int> tiles_done = {};  // per batch
+  // Sums at the end of each unfinished batch, for --savebatch: a tile may
+  // run its next batch before the other tiles finish this one.
+  std::map<int, trace_state> batch_sums = {};
 };
 
 // The scheduler's state, shared by rank 0's MPI thread and render thread.
@@ -301,35 +304,53 @@ static std::optional<tile_work> take_work(scheduler& sched) {
   return work;
 }
 
+// Copy a rendered item's sums (and streams, when the state has them).
+static void copy_tile(trace_state& state, const tile_work& work) {
+  auto k = size_t{0};
+  for (auto j = work.rect.y0; j < work.rect.y1; j++) {
+    for (auto i = work.rect.x0; i < work.rect.x1; i++, k++) {
+      auto idx               = (size_t)j * state.width + i;
+      state.accumulated[idx] = work.accumulated[k];
+      if (!state.rngs.empty()) state.rngs[idx] = work.rngs[k];
+    }
+  }
+}
+
 // Store a rendered item; save the frame's image when a batch completes.
 // Call with the mutex held.
 static void finish_work(scheduler& sched, const tile_work& work) {
   auto& job   = sched.active.at(work.frame);
   auto& state = job.state;
-  auto  k     = size_t{0};
-  for (auto j = work.rect.y0; j < work.rect.y1; j++) {
-    for (auto i = work.rect.x0; i < work.rect.x1; i++, k++) {
-      auto idx               = (size_t)j * state.width + i;
-      state.accumulated[idx] = work.accumulated[k];
-      state.rngs[idx]        = work.rngs[k];
-    }
-  }
-  auto last_batch = (int)sched.plan.batches.size() - 1;
-  if (work.batch < last_batch)
+  copy_tile(state, work);
+  auto  last_batch = (int)sched.plan.batches.size() - 1;
+  auto& options    = *sched.options;
+  if (work.batch < last_batch) {
     sched.ready.push_back(
         {work.frame, work.tile, work.batch + 1, work.rect, 0, 0, {}, {}});
+    if (options.savebatch > 0) {
+      auto& sums = job.batch_sums[work.batch];
+      if (sums.accumulated.empty()) {
+        sums.width  = state.width;
+        sums.height = state.height;
+        sums.accumulated.assign(state.accumulated.size(), {0, 0, 0, 0});
+      }
+      copy_tile(sums, work);
+    }
+  }
   sched.unfinished--;
   update_progress(sched.progress, sched.progress.total - (int)sched.unfinished);
   if (++job.tiles_done[work.batch] < (int)sched.plan.tiles.size()) return;
-  state.samples = work.s1;
-  auto  output  = frame_output(*sched.options, work.frame);
-  auto& options = *sched.options;
+  auto output = frame_output(options, work.frame);
   if (work.batch == last_batch) {
+    state.samples = work.s1;
     save_image(output, get_render(state), options.exposure, options.filmic);
     sched.active.erase(work.frame);
   } else if (options.savebatch > 0) {
-    save_image(batch_filename(output, work.s1), get_render(state),
+    auto& sums   = job.batch_sums.at(work.batch);
+    sums.samples = work.s1;
+    save_image(batch_filename(output, work.s1), get_render(sums),
         options.exposure, options.filmic);
+    job.batch_sums.erase(work.batch);
   }
 }
 
