@@ -409,8 +409,10 @@ static void start_scheduler(scheduler& sched, const render_setup& setup,
   sched.unfinished = sched.unassigned;
   auto message     = "render " + options.scene +
                  (ranks > 1 ? " on " + std::to_string(ranks) + " ranks" : "");
+  // Under mpirun stderr is a pipe to mpirun, which may well be on a
+  // terminal: rank 0 shows the bar unless --quiet.
   start_progress(sched.progress, message, (int)sched.unfinished,
-      !options.quiet && stderr_is_terminal());
+      !options.quiet && (launched_by_mpirun() || stderr_is_terminal()));
 }
 
 // -----------------------------------------------------------------------------
@@ -614,8 +616,8 @@ static void serve_rank_zero(
 
 // Rank 0 checks the scene and sends it; the others load the copy. Returns
 // null on every rank when the scene is bad (rank 0 printed why).
-static std::unique_ptr<render_setup> share_scene(const mpi_session& session,
-    const distributed_options& options, temporary_folder& folder) {
+static std::unique_ptr<render_setup> share_scene(
+    const mpi_session& session, const distributed_options& options) {
   auto setup = std::unique_ptr<render_setup>{};
   auto bytes = std::string{};
   auto ok    = 1;
@@ -633,6 +635,8 @@ static std::unique_ptr<render_setup> share_scene(const mpi_session& session,
   broadcast_bytes(bytes);
   if (session.rank == 0) return setup;
   try {
+    // A loaded scene holds its files' contents: the copy goes at once.
+    auto folder   = temporary_folder{};
     auto filename = write_scene_bundle(deserialize_bundle(bytes), folder);
     return make_render_setup(filename, options, false);
   } catch (const std::exception& error) {
@@ -645,8 +649,7 @@ static std::unique_ptr<render_setup> share_scene(const mpi_session& session,
 // The distributed run on every rank; returns the exit code.
 static int run_ranks(
     const mpi_session& session, const distributed_options& options) {
-  auto folder = temporary_folder{};
-  auto setup  = share_scene(session, options, folder);
+  auto setup = share_scene(session, options);
   if (!setup) return 1;
   try {
     if (session.rank > 0) {
