@@ -59,9 +59,17 @@ static int env_int(const char* name, int fallback) {
   return value && *value ? std::atoi(value) : fallback;
 }
 
-bool launched_by_mpirun() { return env_int("OMPI_COMM_WORLD_SIZE", 0) > 0; }
+// OpenMPI's mpirun sets OMPI_COMM_WORLD_*; PMI launchers (MPICH's mpiexec,
+// Slurm's srun) set PMI_* or PMIX_*.
+bool launched_by_mpirun() {
+  return env_int("OMPI_COMM_WORLD_SIZE", 0) > 0 || env_int("PMI_SIZE", 0) > 0 ||
+         std::getenv("PMIX_RANK") != nullptr;
+}
 
-bool is_primary_process() { return env_int("OMPI_COMM_WORLD_RANK", 0) == 0; }
+bool is_primary_process() {
+  return env_int("OMPI_COMM_WORLD_RANK", 0) == 0 &&
+         env_int("PMI_RANK", 0) == 0 && env_int("PMIX_RANK", 0) == 0;
+}
 
 bool needs_distributed(const distributed_options& options) {
   return options.turntable > 0 || launched_by_mpirun();

@@ -37,8 +37,8 @@ struct distributed_options {
 // Add --turntable and --tilesize to the command line.
 void add_distributed_options(CLI::App& app, distributed_options& options);
 
-// Whether the process was started by mpirun (OpenMPI sets
-// OMPI_COMM_WORLD_SIZE); MPI is initialised only then.
+// Whether the process was started by mpirun (by the environment variables
+// that launchers set); MPI is initialised only then.
 bool launched_by_mpirun();
 
 // Whether this process prints command-line errors: all but the ranks > 0 of

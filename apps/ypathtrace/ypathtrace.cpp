@@ -268,7 +268,7 @@ int main(int argc, char** argv) {
       throw CLI::ValidationError(
           "--interactive", "the viewer runs without mpirun and --turntable");
   } catch (const CLI::CallForHelp&) {
-    std::printf("%s", app.help().c_str());
+    if (is_primary_process()) std::printf("%s", app.help().c_str());
     return 0;
   } catch (const CLI::ParseError& error) {
     if (!is_primary_process()) return 2;  // rank 0 prints it
