@@ -118,6 +118,9 @@ struct render_setup {
   int          width                  = 0;
   int          height                 = 0;
   int          first_turntable_camera = 0;
+  // Each pixel's stream before its first sample (the same in every frame):
+  // a tile's first batch travels without its streams.
+  std::vector<rng_state> initial_rngs = {};
 };
 
 // Load the scene and build the acceleration structure and lights, with the
@@ -152,8 +155,9 @@ static std::unique_ptr<render_setup> make_render_setup(
   }
   auto size =
       camera_resolution(scene.cameras[params.camera], params.resolution);
-  setup->width  = size.x;
-  setup->height = size.y;
+  setup->width        = size.x;
+  setup->height       = size.y;
+  setup->initial_rngs = make_state(scene, params).rngs;
   // The orbit's cameras are appended, so frame k renders with camera
   // first_turntable_camera + k on every rank.
   setup->first_turntable_camera = (int)scene.cameras.size();
@@ -199,11 +203,20 @@ struct tile_work {
 };
 
 // Add samples [s0, s1) to each pixel of the tile, in order, with all threads.
+// A first batch comes without sums and streams: they start at zero and at
+// the initial streams. After the last batch the streams are dropped.
 static void render_tile_work(
     const render_setup& setup, const trace_params& params, tile_work& work) {
   auto& rect   = work.rect;
   auto  stride = rect.x1 - rect.x0;
-  auto  range =
+  auto  count  = (size_t)stride * (rect.y1 - rect.y0);
+  if (work.accumulated.empty()) work.accumulated.assign(count, {0, 0, 0, 0});
+  if (work.rngs.empty()) {
+    for (auto j = rect.y0; j < rect.y1; j++)
+      for (auto i = rect.x0; i < rect.x1; i++)
+        work.rngs.push_back(setup.initial_rngs[(size_t)j * setup.width + i]);
+  }
+  auto range =
       tbb::blocked_range2d<int>(rect.y0, rect.y1, 8, rect.x0, rect.x1, 8);
   tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& block) {
     for (auto j = block.rows().begin(); j < block.rows().end(); j++) {
@@ -217,6 +230,7 @@ static void render_tile_work(
       }
     }
   });
+  if (work.s1 == params.samples) work.rngs = {};
 }
 
 // -----------------------------------------------------------------------------
@@ -302,6 +316,7 @@ static std::optional<tile_work> take_work(scheduler& sched) {
   auto  batch = sched.plan.batches[work.batch];
   work.s0     = batch.x;
   work.s1     = batch.y;
+  if (work.batch == 0) return work;  // starts from zero, initial streams
   for (auto j = work.rect.y0; j < work.rect.y1; j++) {
     for (auto i = work.rect.x0; i < work.rect.x1; i++) {
       auto idx = (size_t)j * state.width + i;
@@ -312,14 +327,15 @@ static std::optional<tile_work> take_work(scheduler& sched) {
   return work;
 }
 
-// Copy a rendered item's sums (and streams, when the state has them).
+// Copy a rendered item's sums, and its streams when both have them.
 static void copy_tile(trace_state& state, const tile_work& work) {
   auto k = size_t{0};
   for (auto j = work.rect.y0; j < work.rect.y1; j++) {
     for (auto i = work.rect.x0; i < work.rect.x1; i++, k++) {
       auto idx               = (size_t)j * state.width + i;
       state.accumulated[idx] = work.accumulated[k];
-      if (!state.rngs.empty()) state.rngs[idx] = work.rngs[k];
+      if (!state.rngs.empty() && !work.rngs.empty())
+        state.rngs[idx] = work.rngs[k];
     }
   }
 }
@@ -438,12 +454,14 @@ struct mpi_session {
 
 enum message_tag : int { tag_ready = 1, tag_result, tag_work, tag_done };
 
-// Work item <-> bytes: a header of ints, then the sums and the streams.
-static constexpr int work_header_size = 9;
+// Work item <-> bytes: a header of ints (the last two say whether the sums
+// and the streams follow), then the sums and the streams.
+static constexpr int work_header_size = 11;
 
 static std::string pack_work(const tile_work& work) {
   int  header[work_header_size] = {work.frame, work.tile, work.batch,
-       work.rect.x0, work.rect.x1, work.rect.y0, work.rect.y1, work.s0, work.s1};
+       work.rect.x0, work.rect.x1, work.rect.y0, work.rect.y1, work.s0, work.s1,
+       !work.accumulated.empty(), !work.rngs.empty()};
   auto bytes                    = std::string{};
   bytes.append((const char*)header, sizeof(header));
   bytes.append((const char*)work.accumulated.data(),
@@ -451,6 +469,17 @@ static std::string pack_work(const tile_work& work) {
   bytes.append(
       (const char*)work.rngs.data(), work.rngs.size() * sizeof(rng_state));
   return bytes;
+}
+
+// Copy `count` items from `bytes` at `offset`, advancing it.
+template <typename T>
+static void unpack_array(const std::string& bytes, size_t& offset, size_t count,
+    std::vector<T>& values) {
+  if (bytes.size() - offset < count * sizeof(T))
+    throw io_error("work item: truncated");
+  values.resize(count);
+  std::memcpy(values.data(), bytes.data() + offset, count * sizeof(T));
+  offset += count * sizeof(T);
 }
 
 static tile_work unpack_work(const std::string& bytes) {
@@ -462,17 +491,10 @@ static tile_work unpack_work(const std::string& bytes) {
       {}};
   auto count = (size_t)(work.rect.x1 - work.rect.x0) *
                (size_t)(work.rect.y1 - work.rect.y0);
-  if (bytes.size() !=
-      sizeof(header) + count * (sizeof(vec4f) + sizeof(rng_state)))
-    throw io_error("work item: wrong size");
-  work.accumulated.resize(count);
-  work.rngs.resize(count);
   auto offset = sizeof(header);
-  std::memcpy(
-      work.accumulated.data(), bytes.data() + offset, count * sizeof(vec4f));
-  offset += count * sizeof(vec4f);
-  std::memcpy(
-      work.rngs.data(), bytes.data() + offset, count * sizeof(rng_state));
+  unpack_array(bytes, offset, header[9] ? count : 0, work.accumulated);
+  unpack_array(bytes, offset, header[10] ? count : 0, work.rngs);
+  if (offset != bytes.size()) throw io_error("work item: wrong size");
   return work;
 }
 
