@@ -5,9 +5,10 @@
 // per-rank setup (load, acceleration structure, lights), then simulates
 // ypathtrace's distributed render on P ranks: rank 0 hands out tiles on
 // demand in row order and renders too; every tile crosses rank 0's network
-// link twice (out with its sums and random streams, 32 bytes a pixel, and
-// back), and the link carries one message at a time. Prints the predicted
-// time and efficiency (serial time / (P x time)) at 16, 64 and 256 ranks.
+// link twice (out as a 44-byte header, back with its sums, 16 bytes a pixel:
+// one batch, no --savebatch), and the link carries one message at a time.
+// Prints the predicted time and efficiency (serial time / (P x time)) at 16, 64
+// and 256 ranks.
 //
 // Usage: bench_mpi_model [--resolution N] [--samples N] [--tilesize N]
 //                        [--spp N] [--gbits X] [--latency-us X] [scene.json...]
@@ -52,7 +53,7 @@ struct model_options {
 
 struct tile_cost {
   double seconds = 0;  // all samples of the tile, one thread
-  double bytes   = 0;  // one way
+  double bytes   = 0;  // out and back
 };
 
 // Per-tile costs of one frame and the setup time of one rank.
@@ -86,7 +87,7 @@ std::vector<tile_cost> measure_tiles(const std::string& filename,
         }
       }
       auto pixels = (double)(x1 - x) * (y1 - y);
-      costs.push_back({(thread_seconds() - t0) * scale, 36 + 32 * pixels});
+      costs.push_back({(thread_seconds() - t0) * scale, 2 * 44 + 16 * pixels});
     }
   }
   return costs;
@@ -108,7 +109,7 @@ double simulate(const std::vector<tile_cost>& tiles, int ranks,
   auto link_free = 0.0, end = 0.0;
   auto next     = size_t{0};
   auto transfer = [&](int tile) {
-    return tile < 0 ? 0 : options.latency + tiles[tile].bytes / bandwidth;
+    return tile < 0 ? 0 : options.latency + tiles[tile].bytes / 2 / bandwidth;
   };
   while (!queue.empty()) {
     auto [time, rank, finished] = queue.top();
@@ -171,7 +172,7 @@ int main(int argc, char** argv) {
         total += tile.seconds;
         low  = std::min(low, tile.seconds);
         high = std::max(high, tile.seconds);
-        bytes += 2 * tile.bytes;
+        bytes += tile.bytes;
       }
       std::printf("| %s | %d | %.3f / %.3f / %.3f | %.3f | %.1f | %.1f |",
           filename.c_str(), (int)tiles.size(), low,
