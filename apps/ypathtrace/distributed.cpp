@@ -216,8 +216,9 @@ static void render_tile_work(
       for (auto i = rect.x0; i < rect.x1; i++)
         work.rngs.push_back(setup.initial_rngs[(size_t)j * setup.width + i]);
   }
+  // 4x4-pixel tasks: a 64-pixel tile keeps 256 threads of one rank busy.
   auto range =
-      tbb::blocked_range2d<int>(rect.y0, rect.y1, 8, rect.x0, rect.x1, 8);
+      tbb::blocked_range2d<int>(rect.y0, rect.y1, 4, rect.x0, rect.x1, 4);
   tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& block) {
     for (auto j = block.rows().begin(); j < block.rows().end(); j++) {
       for (auto i = block.cols().begin(); i < block.cols().end(); i++) {
