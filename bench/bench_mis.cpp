@@ -15,7 +15,7 @@
 #include <string>
 
 #include "scene/scene_io.h"
-#include "trace/trace.h"
+#include "trace/render.h"
 
 using namespace implicit;
 
@@ -26,21 +26,20 @@ struct timed_render {
 };
 
 // Render passes until `seconds` have elapsed or `max_samples` are done.
-static timed_render render_for(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, const trace_params& params, double seconds,
-    int max_samples) {
-  auto state  = make_state(scene, params);
+static timed_render render_for(const render_context& context,
+    const trace_params& params, double seconds, int max_samples) {
+  auto state  = make_render_state(context, params);
   auto start  = std::chrono::steady_clock::now();
   auto result = timed_render{};
   while (state.samples < max_samples) {
-    trace_samples(state, scene, accel, lights, params);
+    render_step(context, state);
     result.seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
             .count();
     if (result.seconds >= seconds) break;
   }
   result.samples = state.samples;
-  result.image   = get_render(state);
+  result.image   = get_image(state);
   return result;
 }
 
@@ -84,14 +83,13 @@ int main(int argc, char** argv) {
   params.resolution = resolution;
   params.bounces    = bounces;
   params.clamp      = 1e30f;
-  auto accel        = make_accel(scene, params.accel, params.march);
-  auto lights       = make_lights(scene, accel);
+  auto context      = make_render_context(std::move(scene), params);
 
   auto reference_params = params;
   reference_params.mis  = mis_type::two_sample;
   reference_params.seed = 12345;
-  auto reference        = render_for(
-             scene, accel, lights, reference_params, 1e30, reference_samples);
+  auto reference =
+      render_for(*context, reference_params, 1e30, reference_samples);
   std::printf(
       "scene %s, %dx%d, %d bounces, reference %d spp (two-sample MIS) in %.1f "
       "s\n\n",
@@ -125,7 +123,7 @@ int main(int argc, char** argv) {
     p.implicit_mis = m.mis;
     p.mis          = m.type;
     p.sampler      = m.sampler;
-    auto render    = render_for(scene, accel, lights, p, seconds, 1 << 30);
+    auto render    = render_for(*context, p, seconds, 1 << 30);
     results.push_back({render, rmse(render.image, reference.image)});
   }
   auto index = 0;

@@ -28,7 +28,7 @@
 #include <vector>
 
 #include "scene/scene_io.h"
-#include "trace/trace.h"
+#include "trace/render.h"
 
 using namespace implicit;
 
@@ -60,33 +60,24 @@ struct tile_cost {
 std::vector<tile_cost> measure_tiles(const std::string& filename,
     const model_options& options, double& setup_seconds) {
   auto start        = thread_seconds();
-  auto scene        = load_scene(filename);
   auto params       = trace_params{};
   params.resolution = options.resolution;
   params.samples    = options.samples;
-  auto accel        = make_accel(scene, params.accel, params.march);
-  add_missing_camera(scene, accel.bounds);
-  params.camera = find_camera(scene, "");
-  auto lights   = make_lights(scene, accel);
-  setup_seconds = thread_seconds() - start;
-  auto state    = make_state(scene, params);
-  auto scale    = (double)options.spp / options.samples;
-  auto costs    = std::vector<tile_cost>{};
-  for (auto y = 0; y < state.height; y += options.tile_size) {
-    for (auto x = 0; x < state.width; x += options.tile_size) {
-      auto x1 = std::min(x + options.tile_size, state.width);
-      auto y1 = std::min(y + options.tile_size, state.height);
-      auto t0 = thread_seconds();
-      for (auto j = y; j < y1; j++) {
-        for (auto i = x; i < x1; i++) {
-          auto idx = (size_t)j * state.width + i;
-          for (auto s = 0; s < options.samples; s++)
-            state.accumulated[idx] +=
-                trace_pixel(scene, accel, lights, params, i, j, state.width,
-                    state.height, s, state.rngs[idx], state.evaluations[idx]);
-        }
-      }
-      auto pixels = (double)(x1 - x) * (y1 - y);
+  auto context      = make_render_context(load_scene(filename), params);
+  auto warnings     = std::vector<std::string>{};
+  params            = resolve_params(*context, params, "", warnings);
+  setup_seconds     = thread_seconds() - start;
+  auto size         = render_size(*context, params);
+  auto scale        = (double)options.spp / options.samples;
+  auto costs        = std::vector<tile_cost>{};
+  auto sums         = std::vector<vec4f>{};
+  for (auto y = 0; y < size.y; y += options.tile_size) {
+    for (auto x = 0; x < size.x; x += options.tile_size) {
+      auto tile = render_tile_rect{x, std::min(x + options.tile_size, size.x),
+          y, std::min(y + options.tile_size, size.y)};
+      auto t0   = thread_seconds();
+      render_tile(*context, params, tile, sums);
+      auto pixels = (double)(tile.x1 - tile.x0) * (tile.y1 - tile.y0);
       costs.push_back({(thread_seconds() - t0) * scale, 2 * 44 + 16 * pixels});
     }
   }

@@ -37,7 +37,7 @@
 
 #include "scene/scene_io.h"
 #include "scene/scene_random.h"
-#include "trace/trace.h"
+#include "trace/render.h"
 
 using namespace implicit;
 
@@ -115,19 +115,18 @@ static double cpu_seconds() {
   return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
 }
 
-// Render `params.samples` passes and time them (the accel is built outside).
-static run_result run(const scene_data& scene, const accel_data& accel,
-    const trace_params& params, int threads = 0) {
+// Render `params.samples` passes and time them (the context is built
+// outside).
+static run_result run(const render_context& context, const trace_params& params,
+    int threads = 0) {
   auto control = std::unique_ptr<tbb::global_control>{};
   if (threads > 0)
     control = std::make_unique<tbb::global_control>(
         tbb::global_control::max_allowed_parallelism, (size_t)threads);
-  auto lights    = make_lights(scene, accel);
-  auto state     = make_state(scene, params);
+  auto state     = make_render_state(context, params);
   auto start     = std::chrono::steady_clock::now();
   auto cpu_start = cpu_seconds();
-  for (auto s = 0; s < params.samples; s++)
-    trace_samples(state, scene, accel, lights, params);
+  for (auto s = 0; s < params.samples; s++) render_step(context, state);
   auto result = run_result{};
   result.cpu  = cpu_seconds() - cpu_start;
   result.seconds =
@@ -135,7 +134,7 @@ static run_result run(const scene_data& scene, const accel_data& accel,
           .count();
   result.samples = (double)state.width * state.height * params.samples;
   for (auto e : state.evaluations) result.evaluations += (double)e;
-  result.image = get_render(state);
+  result.image = get_image(state);
   return result;
 }
 
@@ -192,10 +191,14 @@ static void bench_scene(const std::string& name, const scene_data& scene,
   auto path       = base;
   path.samples    = options.samples;
 
-  auto build_start = std::chrono::steady_clock::now();
-  auto fast        = make_accel(scene, accel_type::bvh, base.march);
-  auto build_ms    = seconds_since(build_start) * 1000;
-  auto slow        = make_accel(scene, accel_type::none, base.march);
+  auto build_start  = std::chrono::steady_clock::now();
+  auto fast_ptr     = make_render_context(scene_data{scene}, base);
+  auto build_ms     = seconds_since(build_start) * 1000;
+  auto slow_params  = base;
+  slow_params.accel = accel_type::none;
+  auto  slow_ptr    = make_render_context(scene_data{scene}, slow_params);
+  auto& fast        = *fast_ptr;
+  auto& slow        = *slow_ptr;
 
   // Warm up the thread pool and the caches.
   auto low_camera       = camera;
@@ -203,16 +206,16 @@ static void bench_scene(const std::string& name, const scene_data& scene,
   low_camera.resolution = std::max(8, options.resolution / 8);
   low_path.resolution   = low_camera.resolution;
   low_path.samples      = 1;
-  run(scene, fast, low_path);
+  run(fast, low_path);
 
-  auto fast_camera = run(scene, fast, camera);
-  auto fast_path   = run(scene, fast, path);
-  auto one_thread  = run(scene, fast, path, 1);
-  auto two_threads = run(scene, fast, path, 2);
+  auto fast_camera = run(fast, camera);
+  auto fast_path   = run(fast, path);
+  auto one_thread  = run(fast, path, 1);
+  auto two_threads = run(fast, path, 2);
 
   // Reference: time it at 1/8 of the resolution first.
-  auto low_ref_camera = run(scene, slow, low_camera);
-  auto low_ref_path   = run(scene, slow, low_path);
+  auto low_ref_camera = run(slow, low_camera);
+  auto low_ref_path   = run(slow, low_path);
   auto estimate =
       low_ref_camera.seconds / low_ref_camera.samples * fast_camera.samples +
       low_ref_path.seconds / low_ref_path.samples * fast_path.samples;
@@ -220,8 +223,8 @@ static void bench_scene(const std::string& name, const scene_data& scene,
   auto skipped = estimate > options.reference_limit;
   auto equal   = std::string{"-"};
   if (!skipped) {
-    ref_camera = run(scene, slow, camera);
-    ref_path   = run(scene, slow, path);
+    ref_camera = run(slow, camera);
+    ref_path   = run(slow, path);
     equal      = fixed(100 * equal_fraction(
                                  fast_camera.image, ref_camera.image, 1 / 255.0f),
                      2) +
@@ -229,8 +232,8 @@ static void bench_scene(const std::string& name, const scene_data& scene,
   } else {
     // Compare like with like: the BVH at the same low resolution, scaled to
     // the full run through the low-resolution ratio.
-    auto low_fast_camera = run(scene, fast, low_camera);
-    auto low_fast_path   = run(scene, fast, low_path);
+    auto low_fast_camera = run(fast, low_camera);
+    auto low_fast_path   = run(fast, low_path);
     auto scale_to        = [](run_result ref, const run_result& low_fast,
                         const run_result& fast_run) {
       ref.seconds = ref.seconds / low_fast.seconds * fast_run.seconds;
@@ -257,7 +260,7 @@ static void bench_scene(const std::string& name, const scene_data& scene,
       "| %s%s | %d | %.1f | %.3f | %.3f | %.1f | %.4f | %.4f | %.1f "
       "| %s%.1f | %s%.1f | %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f "
       "| %.2f | %.0f |\n",
-      name.c_str(), note.c_str(), (int)fast.objects.size(), build_ms,
+      name.c_str(), note.c_str(), (int)fast.accel.objects.size(), build_ms,
       mrays(fast_camera), per_cpu(fast_camera), evals(fast_camera),
       mrays(fast_path), per_cpu(fast_path), evals(fast_path), mark.c_str(),
       evals(ref_camera), mark.c_str(), evals(ref_path), mark.c_str(),

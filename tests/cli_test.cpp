@@ -2,6 +2,7 @@
 
 #include <doctest/doctest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -114,4 +115,91 @@ TEST_CASE("cli: a scene without lights falls back to eyelight") {
   auto image = implicit::load_image(out);
   // The ball is lit by the eye light: the centre is bright.
   CHECK(implicit::pixel(image, 16, 9).x > 0.3f);
+}
+
+TEST_CASE("cli: NaN and infinite values are refused") {
+  auto dir = test_dir("cli_nan");
+  auto out = (dir / "out.png").string();
+  for (auto args : {"--clamp nan", "--clamp inf", "--exposure inf",
+           "--exposure nan", "--exposure -inf", "--clamp 0"}) {
+    auto result = run_ypathtrace(
+        "--scene " + example_scene() + " " + args + " --output " + out);
+    INFO(args, " -> ", result.output);
+    CHECK(result.status == 2);
+    CHECK(result.output.rfind("ypathtrace: error:", 0) == 0);
+    auto name = std::string{args}.substr(2, std::string{args}.find(' ') - 2);
+    CHECK(result.output.find(name) != std::string::npos);
+    CHECK(!fs::exists(out));
+  }
+}
+
+TEST_CASE("cli: the output is checked before rendering") {
+  auto dir = test_dir("cli_output");
+  // A missing folder and a folder that cannot be written fail at once, with
+  // a render too long to finish in the test's time if it started.
+  auto slow    = " --resolution 2000 --samples 100000 --quiet";
+  auto missing = run_ypathtrace("--scene " + example_scene() + " --output " +
+                                (dir / "nowhere" / "out.png").string() + slow);
+  INFO(missing.output);
+  CHECK(missing.status == 2);
+  CHECK(missing.output.find("does not exist") != std::string::npos);
+  // A file where the folder should be.
+  std::ofstream(dir / "file") << "x";
+  auto notdir = run_ypathtrace("--scene " + example_scene() + " --output " +
+                               (dir / "file" / "out.png").string() + slow);
+  CHECK(notdir.status == 2);
+  CHECK(notdir.output.find("does not exist") != std::string::npos);
+  // A folder without write permission (root writes anywhere: not tested).
+  if (geteuid() != 0) {
+    auto locked = dir / "locked";
+    fs::create_directories(locked);
+    fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
+    auto readonly = run_ypathtrace("--scene " + example_scene() + " --output " +
+                                   (locked / "out.png").string() + slow);
+    fs::permissions(locked, fs::perms::owner_all);
+    INFO(readonly.output);
+    CHECK(readonly.status == 2);
+    CHECK(readonly.output.find("not writable") != std::string::npos);
+    CHECK(fs::is_empty(locked));
+  }
+  auto format = run_ypathtrace("--scene " + example_scene() + " --output " +
+                               (dir / "out.bmpx").string() + slow);
+  CHECK(format.status == 2);
+  CHECK(format.output.find("unsupported image format") != std::string::npos);
+}
+
+TEST_CASE("cli: an interrupted render writes nothing half-done") {
+  for (auto signal : {"INT", "TERM"}) {
+    INFO("SIG", signal);
+    auto dir = test_dir(std::string{"cli_interrupt_"} + signal);
+    auto out = (dir / "out.png").string();
+    // Wait for the first complete batch, then interrupt.
+    auto script = ypathtrace_path() + " --scene " + example_scene() +
+                  " --output " + out +
+                  " --resolution 32 --samples 1000000 --savebatch 1 --quiet & "
+                  "pid=$!; for i in $(seq 1 600); do "
+                  "ls " +
+                  dir.string() +
+                  "/out-s*.png >/dev/null 2>&1 && break; "
+                  "sleep 0.05; done; sleep 0.2; kill -" +
+                  signal + " $pid; wait $pid; echo exit=$?";
+    auto result = run_command("bash -c '" + script + "'");
+    INFO(result.output);
+    CHECK(result.output.find("exit=130") != std::string::npos);
+    CHECK(result.output.find("interrupted") != std::string::npos);
+    CHECK(!fs::exists(out));
+    auto batches = 0, temporaries = 0;
+    for (auto& entry : fs::directory_iterator(dir)) {
+      auto name = entry.path().filename().string();
+      if (name.rfind("out-s", 0) == 0) {
+        batches++;
+        auto image = implicit::load_image(entry.path().string());
+        CHECK(image.width == 32);
+      } else {
+        temporaries++;
+      }
+    }
+    CHECK(batches >= 1);
+    CHECK(temporaries == 0);
+  }
 }

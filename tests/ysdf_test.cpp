@@ -7,6 +7,7 @@
 #include <string>
 
 #include "sdf/sdf_grid_io.h"
+#include "shared_data.h"
 #include "test_commands.h"
 
 using namespace implicit;
@@ -22,9 +23,24 @@ std::string shared_sample(const std::string& name) {
   return std::string{IMPLICIT_SHARED_DIR} + "/sdf_samples/" + name;
 }
 
+// A sample grid of ../shared, or without it a sphere baked by ysdf into
+// `dir` (SDFGen text, as the samples used here).
+std::string sample_or_baked(
+    const std::string& name, const std::filesystem::path& dir) {
+  if (std::filesystem::is_directory(IMPLICIT_SHARED_DIR))
+    return shared_sample(name);
+  auto grid   = (dir / "baked_sphere.sdf").string();
+  auto result = run_ysdf("--quiet bake " + grid +
+                         " --voxel 0.05 --pad 2 --shape \"sphere radius=0.5\"");
+  INFO(result.output);
+  REQUIRE(result.status == 0);
+  return grid;
+}
+
 }  // namespace
 
 TEST_CASE("ysdf: info reports dims, spacing and the surface") {
+  IMPLICIT_SKIP_WITHOUT_SHARED("torus sample; the bake test runs info too");
   auto result = run_ysdf(
       "info " + shared_sample("sdfgen_torus_R0.6_r0.2_dx0.04_pad2.sdf"));
   INFO(result.output);
@@ -36,7 +52,7 @@ TEST_CASE("ysdf: info reports dims, spacing and the surface") {
 
 TEST_CASE("ysdf: convert round trips through every format") {
   auto dir    = test_dir("ysdf_convert");
-  auto source = shared_sample("sdfgen_icosphere_r0.5_dx0.05_pad2.sdf");
+  auto source = sample_or_baked("sdfgen_icosphere_r0.5_dx0.05_pad2.sdf", dir);
   auto input  = load_grid(source, grid_format::sdfgen);
   auto chain  = std::vector<std::string>{"a.vdb", "b.vol", "c.sdf"};
   auto from   = source;
@@ -68,6 +84,11 @@ TEST_CASE("ysdf: bake a sphere and mesh it") {
   auto lowest = 0.0f;
   for (auto v : baked.values) lowest = std::min(lowest, v);
   CHECK(lowest == doctest::Approx(-0.5f).epsilon(0.1).scale(0));
+  auto info = run_ysdf("info " + grid);
+  INFO(info.output);
+  CHECK(info.status == 0);
+  CHECK(info.output.find("spacing:  0.05") != std::string::npos);
+  CHECK(info.output.find("zero crossing") != std::string::npos);
   auto mesh = (dir / "sphere.obj").string();
   result    = run_ysdf("--quiet to-mesh " + grid + " " + mesh);
   INFO(result.output);
@@ -86,9 +107,9 @@ TEST_CASE("ysdf: errors are one line and exit 1") {
   result = run_ysdf("info " + (dir / "missing.vdb").string());
   CHECK(result.status != 0);
   CHECK(result.output.find("missing.vdb") != std::string::npos);
-  result =
-      run_ysdf("convert " + shared_sample("mitsuba_sdfgrid_sphere_48.vol") +
-               " " + (dir / "out.xyz").string());
+  result = run_ysdf("convert " +
+                    sample_or_baked("mitsuba_sdfgrid_sphere_48.vol", dir) +
+                    " " + (dir / "out.xyz").string());
   CHECK(result.status != 0);
   CHECK(!std::filesystem::exists(dir / "out.xyz"));
 }

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "image/image_io.h"
-#include "trace/trace.h"
+#include "trace/render.h"
 
 using namespace implicit;
 
@@ -75,7 +75,10 @@ int main(int argc, char** argv) {
   params.resolution = 480;
   params.samples    = samples;
   try {
-    save_image(output, trace_image(scene, params));
+    auto context = make_render_context(std::move(scene), params);
+    auto image   = image_data{};
+    render_image(*context, params, image);
+    save_image(output, image);
   } catch (const std::exception& error) {
     std::fprintf(stderr, "user_sdf: error: %s\n", error.what());
     return 1;

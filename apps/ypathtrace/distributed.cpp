@@ -29,6 +29,7 @@
 #include "image/image_io.h"
 #include "scene/scene_io.h"
 #include "scene_bundle.h"
+#include "trace/render.h"
 #include "util/error.h"
 #include "util/progress.h"
 
@@ -109,71 +110,42 @@ static std::string batch_filename(const std::string& output, int samples) {
 // SETUP
 // -----------------------------------------------------------------------------
 
-// Everything a rank renders with, built once per rank.
+// Everything a rank renders with, built once per rank: the render core's
+// context, the resolved parameters, the image size and the camera.
 struct render_setup {
-  scene_data   scene                  = {};
-  accel_data   accel                  = {};
-  lights_data  lights                 = {};
-  trace_params params                 = {};
-  int          width                  = 0;
-  int          height                 = 0;
-  int          first_turntable_camera = 0;
-  // Each pixel's stream before its first sample (the same in every frame):
-  // a tile's first batch travels without its streams.
-  std::vector<rng_state> initial_rngs = {};
+  std::unique_ptr<const render_context> context = {};
+  trace_params                          params  = {};
+  camera_data                           camera  = {};
+  int                                   width   = 0;
+  int                                   height  = 0;
 };
 
-// Load the scene and build the acceleration structure and lights, with the
-// same fallbacks as the single-process render; `verbose` prints warnings.
-static std::unique_ptr<render_setup> make_render_setup(
-    const std::string& filename, const distributed_options& options,
-    bool verbose) {
-  auto setup    = std::make_unique<render_setup>();
+// Load the scene and make the render context; the render core applies its
+// fallbacks. `verbose` prints the warnings (rank 0 only).
+static render_setup make_render_setup(const std::string& filename,
+    const distributed_options& options, bool verbose) {
+  auto setup    = render_setup{};
   auto warnings = std::vector<std::string>{};
-  setup->scene  = load_scene(filename, warnings);
+  auto scene    = load_scene(filename, warnings);
+  setup.context = make_render_context(std::move(scene), options.params);
+  setup.params =
+      resolve_params(*setup.context, options.params, options.camera, warnings);
   if (verbose)
     for (auto& warning : warnings)
       std::fprintf(stderr, "warning: %s\n", warning.c_str());
-  auto& scene  = setup->scene;
-  auto& params = setup->params;
-  params       = options.params;
-  setup->accel = make_accel(scene, params.accel, params.march);
-  add_missing_camera(scene, setup->accel.bounds);
-  params.camera     = find_camera(scene, options.camera);
-  setup->lights     = make_lights(scene, setup->accel);
-  auto has_emitters = !setup->lights.lights.empty();
-  for (auto& object : setup->accel.objects)
-    if (object.material >= 0 &&
-        max(scene.materials[object.material].emission) > 0)
-      has_emitters = true;
-  if (is_lit_shader(params.shader) && !has_emitters) {
-    if (verbose)
-      std::fprintf(stderr,
-          "warning: the scene has no lights; rendering with the eyelight "
-          "shader\n");
-    params.shader = shader_type::eyelight;
-  }
-  auto size =
-      camera_resolution(scene.cameras[params.camera], params.resolution);
-  setup->width        = size.x;
-  setup->height       = size.y;
-  setup->initial_rngs = make_state(scene, params).rngs;
-  // The orbit's cameras are appended, so frame k renders with camera
-  // first_turntable_camera + k on every rank.
-  setup->first_turntable_camera = (int)scene.cameras.size();
-  auto camera                   = scene.cameras[params.camera];
-  for (auto frame = 0; frame < options.turntable; frame++)
-    scene.cameras.push_back(turntable_camera(camera, frame, options.turntable));
+  setup.camera = setup.context->scene.cameras[setup.params.camera];
+  auto size    = render_size(*setup.context, setup.params);
+  setup.width  = size.x;
+  setup.height = size.y;
   return setup;
 }
 
-// Render parameters of one frame of the run.
-static trace_params frame_params(
+// Camera of one frame of the run (the orbit keeps the image size).
+static camera_data frame_camera(
     const render_setup& setup, const distributed_options& options, int frame) {
-  auto params = setup.params;
-  if (options.turntable > 0)
-    params.camera = setup.first_turntable_camera + frame;
-  return params;
+  return options.turntable > 0
+             ? turntable_camera(setup.camera, frame, options.turntable)
+             : setup.camera;
 }
 
 // Output file of one frame.
@@ -202,32 +174,37 @@ struct tile_work {
   std::vector<rng_state> rngs        = {};
 };
 
-// Add samples [s0, s1) to each pixel of the tile, in order, with all threads.
-// A first batch comes without sums and streams: they start at zero and at
-// the initial streams. After the last batch the streams are dropped.
+// Add samples [s0, s1) to each pixel of the tile, in order, with all threads,
+// through the render core's one pixel loop. (render_tile() always starts at
+// sample 0 with the scene's camera; batches and orbit cameras need more.) A
+// first batch comes without sums and streams: they start at zero and at the
+// pixels' own streams. After the last batch the streams are dropped.
 static void render_tile_work(
-    const render_setup& setup, const trace_params& params, tile_work& work) {
+    const render_setup& setup, const camera_data& camera, tile_work& work) {
   auto& rect   = work.rect;
+  auto& params = setup.params;
   auto  stride = rect.x1 - rect.x0;
   auto  count  = (size_t)stride * (rect.y1 - rect.y0);
   if (work.accumulated.empty()) work.accumulated.assign(count, {0, 0, 0, 0});
   if (work.rngs.empty()) {
     for (auto j = rect.y0; j < rect.y1; j++)
       for (auto i = rect.x0; i < rect.x1; i++)
-        work.rngs.push_back(setup.initial_rngs[(size_t)j * setup.width + i]);
+        work.rngs.push_back(
+            make_pixel_rng(params.seed, (size_t)j * setup.width + i));
   }
   // 4x4-pixel tasks: a 64-pixel tile keeps 256 threads of one rank busy.
   auto range =
       tbb::blocked_range2d<int>(rect.y0, rect.y1, 4, rect.x0, rect.x1, 4);
+  auto& context = *setup.context;
   tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& block) {
     for (auto j = block.rows().begin(); j < block.rows().end(); j++) {
       for (auto i = block.cols().begin(); i < block.cols().end(); i++) {
         auto idx         = (size_t)(j - rect.y0) * stride + (i - rect.x0);
         auto evaluations = int64_t{0};
-        for (auto sample = work.s0; sample < work.s1; sample++)
-          work.accumulated[idx] += trace_pixel(setup.scene, setup.accel,
-              setup.lights, params, i, j, setup.width, setup.height, sample,
-              work.rngs[idx], evaluations);
+        trace_pixel_samples(context.scene, context.accel, context.lights,
+            camera, params, i, j, setup.width, setup.height, work.s0,
+            work.s1 - work.s0, work.accumulated[idx], work.rngs[idx],
+            evaluations);
       }
     }
   });
@@ -266,12 +243,12 @@ static std::vector<vec2i> make_batches(int samples, int savebatch) {
 
 // A frame being rendered: rank 0's gathered sums and streams.
 struct frame_job {
-  trace_params     params     = {};
-  trace_state      state      = {};
+  camera_data      camera     = {};
+  render_state     state      = {};
   std::vector<int> tiles_done = {};  // per batch
   // Sums at the end of each unfinished batch, for --savebatch: a tile may
   // run its next batch before the other tiles finish this one.
-  std::map<int, trace_state> batch_sums = {};
+  std::map<int, std::vector<vec4f>> batch_sums = {};
 };
 
 // The scheduler's state, shared by rank 0's MPI thread and render thread.
@@ -297,8 +274,9 @@ static void activate_frames(scheduler& sched) {
          sched.active.size() < sched.max_active) {
     auto  frame = sched.plan.frames[sched.next_frame++];
     auto& job   = sched.active[frame];
-    job.params  = frame_params(*sched.setup, *sched.options, frame);
-    job.state   = make_state(sched.setup->scene, job.params);
+    job.camera  = frame_camera(*sched.setup, *sched.options, frame);
+    job.state   = make_render_state(
+          *sched.setup->context, sched.setup->params, job.camera);
     job.tiles_done.assign(sched.plan.batches.size(), 0);
     for (auto tile = 0; tile < (int)sched.plan.tiles.size(); tile++)
       sched.ready.push_back({frame, tile, 0, sched.plan.tiles[tile]});
@@ -328,15 +306,16 @@ static std::optional<tile_work> take_work(scheduler& sched) {
   return work;
 }
 
-// Copy a rendered item's sums, and its streams when both have them.
-static void copy_tile(trace_state& state, const tile_work& work) {
+// Copy a rendered item's sums into an image's, and its streams when it has
+// them (`rngs` may be null).
+static void copy_tile(const tile_work& work, int width,
+    std::vector<vec4f>& accumulated, std::vector<rng_state>* rngs) {
   auto k = size_t{0};
   for (auto j = work.rect.y0; j < work.rect.y1; j++) {
     for (auto i = work.rect.x0; i < work.rect.x1; i++, k++) {
-      auto idx               = (size_t)j * state.width + i;
-      state.accumulated[idx] = work.accumulated[k];
-      if (!state.rngs.empty() && !work.rngs.empty())
-        state.rngs[idx] = work.rngs[k];
+      auto idx         = (size_t)j * width + i;
+      accumulated[idx] = work.accumulated[k];
+      if (rngs && !work.rngs.empty()) (*rngs)[idx] = work.rngs[k];
     }
   }
 }
@@ -346,7 +325,7 @@ static void copy_tile(trace_state& state, const tile_work& work) {
 static void finish_work(scheduler& sched, const tile_work& work) {
   auto& job   = sched.active.at(work.frame);
   auto& state = job.state;
-  copy_tile(state, work);
+  copy_tile(work, state.width, state.accumulated, &state.rngs);
   auto  last_batch = (int)sched.plan.batches.size() - 1;
   auto& options    = *sched.options;
   if (work.batch < last_batch) {
@@ -354,27 +333,24 @@ static void finish_work(scheduler& sched, const tile_work& work) {
         {work.frame, work.tile, work.batch + 1, work.rect, 0, 0, {}, {}});
     if (options.savebatch > 0) {
       auto& sums = job.batch_sums[work.batch];
-      if (sums.accumulated.empty()) {
-        sums.width  = state.width;
-        sums.height = state.height;
-        sums.accumulated.assign(state.accumulated.size(), {0, 0, 0, 0});
-      }
-      copy_tile(sums, work);
+      if (sums.empty()) sums.assign(state.accumulated.size(), {0, 0, 0, 0});
+      copy_tile(work, state.width, sums, nullptr);
     }
   }
   sched.unfinished--;
   update_progress(sched.progress, sched.progress.total - (int)sched.unfinished);
   if (++job.tiles_done[work.batch] < (int)sched.plan.tiles.size()) return;
-  auto output = frame_output(options, work.frame);
+  auto  output = frame_output(options, work.frame);
+  auto& params = sched.setup->params;
   if (work.batch == last_batch) {
     state.samples = work.s1;
-    save_image(output, get_render(state), options.exposure, options.filmic);
+    save_image(output, get_image(state), params.exposure, params.filmic);
     sched.active.erase(work.frame);
   } else if (options.savebatch > 0) {
-    auto& sums   = job.batch_sums.at(work.batch);
-    sums.samples = work.s1;
-    save_image(batch_filename(output, work.s1), get_render(sums),
-        options.exposure, options.filmic);
+    auto image = average_samples(
+        job.batch_sums.at(work.batch), state.width, state.height, work.s1);
+    save_image(
+        batch_filename(output, work.s1), image, params.exposure, params.filmic);
     job.batch_sums.erase(work.batch);
   }
 }
@@ -384,7 +360,7 @@ static void finish_work(scheduler& sched, const tile_work& work) {
 static void render_local(scheduler& sched) {
   while (true) {
     auto work   = std::optional<tile_work>{};
-    auto params = trace_params{};
+    auto camera = camera_data{};
     {
       auto lock = std::unique_lock<std::mutex>(sched.mutex);
       sched.changed.wait(lock, [&] {
@@ -392,9 +368,9 @@ static void render_local(scheduler& sched) {
                (work = take_work(sched)).has_value();
       });
       if (!work) return;
-      params = sched.active.at(work->frame).params;
+      camera = sched.active.at(work->frame).camera;
     }
-    render_tile_work(*sched.setup, params, *work);
+    render_tile_work(*sched.setup, camera, *work);
     auto lock = std::unique_lock<std::mutex>(sched.mutex);
     finish_work(sched, *work);
     sched.changed.notify_all();
@@ -639,30 +615,31 @@ static void serve_rank_zero(
     auto bytes  = receive_bytes(status);
     if (status.MPI_TAG == tag_done) return;
     auto work = unpack_work(bytes);
-    render_tile_work(setup, frame_params(setup, options, work.frame), work);
+    render_tile_work(setup, frame_camera(setup, options, work.frame), work);
     if (crash) std::abort();
     send_bytes(pack_work(work), 0, tag_result);
   }
 }
 
 // Rank 0 checks the scene and sends it; the others load the copy. Returns
-// null on every rank when the scene is bad (rank 0 printed why).
-static std::unique_ptr<render_setup> share_scene(
+// nothing on every rank when the scene is bad (rank 0 printed why).
+static std::optional<render_setup> share_scene(
     const mpi_session& session, const distributed_options& options) {
-  auto setup = std::unique_ptr<render_setup>{};
+  auto setup = std::optional<render_setup>{};
   auto bytes = std::string{};
   auto ok    = 1;
   if (session.rank == 0) {
     try {
       setup = make_render_setup(options.scene, options, true);
-      bytes = serialize_bundle(make_scene_bundle(options.scene, setup->scene));
+      bytes = serialize_bundle(
+          make_scene_bundle(options.scene, setup->context->scene));
     } catch (const std::exception& error) {
       std::fprintf(stderr, "ypathtrace: error: %s\n", error.what());
       ok = 0;
     }
   }
   MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
-  if (!ok) return nullptr;
+  if (!ok) return std::nullopt;
   broadcast_bytes(bytes);
   if (session.rank == 0) return setup;
   try {
@@ -718,7 +695,7 @@ static int run_single(const distributed_options& options) {
   try {
     auto      setup = make_render_setup(options.scene, options, true);
     scheduler sched;
-    start_scheduler(sched, *setup, options, 1);
+    start_scheduler(sched, setup, options, 1);
     render_local(sched);
     end_progress(sched.progress);
     return 0;

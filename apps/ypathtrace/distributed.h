@@ -25,9 +25,7 @@ struct distributed_options {
   std::string  scene     = "scene.json";
   std::string  output    = "out.png";
   std::string  camera    = "";
-  trace_params params    = {};
-  float        exposure  = 0;
-  bool         filmic    = false;
+  trace_params params    = {};  // as parsed (exposure and filmic too)
   int          savebatch = 0;
   bool         quiet     = false;
   int          turntable = 0;   // frames of the orbit; 0: one image

@@ -1,10 +1,14 @@
 // # ypathtrace: render implicit-surface scenes
 //
-// parse options -> load scene -> make accel + lights -> trace samples -> save.
+// parse options -> load scene -> render context (trace/render.h) -> render
+// samples -> save. The render core owns every policy; this file parses,
+// reports and writes.
 
 #include <tbb/global_control.h>
 
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -13,8 +17,9 @@
 #include "distributed.h"
 #include "image/image_io.h"
 #include "scene/scene_io.h"
-#include "trace/trace.h"
+#include "trace/render.h"
 #include "util/error.h"
+#include "util/file.h"
 #include "util/progress.h"
 #ifdef IMPLICIT_VIEWER
 #include "gui/viewer.h"
@@ -35,8 +40,6 @@ struct app_options {
   std::string  mis           = "two";
   std::string  sampler       = "sobol";
   trace_params params        = {};
-  float        exposure      = 0;
-  bool         filmic        = false;
   bool         noimplicitmis = false;
   int          threads       = 0;
   int          savebatch     = 0;
@@ -86,13 +89,11 @@ static void add_options(CLI::App& app, app_options& opts) {
       ->check(CLI::Range(1, 1024))
       ->capture_default_str();
   app.add_option("--clamp", p.clamp, "Clamp sample radiance to this value")
-      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--seed", p.seed, "Random seed")->capture_default_str();
-  app.add_option("--exposure", opts.exposure, "Exposure in stops (LDR output)")
-      ->check(CLI::Range(-100.0f, 100.0f))
+  app.add_option("--exposure", p.exposure, "Exposure in stops (LDR output)")
       ->capture_default_str();
-  app.add_flag("--filmic", opts.filmic, "Filmic tone curve (LDR output)");
+  app.add_flag("--filmic", p.filmic, "Filmic tone curve (LDR output)");
   app.add_flag(
       "--envhidden", p.envhidden, "Hide the environment behind the scene");
   app.add_flag(
@@ -159,14 +160,22 @@ static void validate_options(app_options& opts) {
   if (!opts.screenshot.empty() && opts.frames == 0)
     throw CLI::ValidationError("--screenshot",
         "--screenshot needs --frames (it saves the last frame)");
-  auto ext = opts.output.substr(opts.output.find_last_of('.') + 1);
-  for (auto& c : ext) c = (char)std::tolower(c);
-  if (opts.output.find('.') == std::string::npos ||
-      (ext != "png" && ext != "jpg" && ext != "jpeg" && ext != "hdr" &&
-          ext != "exr"))
+  // Ranges and finite values: the render core's one validation.
+  try {
+    validate_params(p);
+  } catch (const io_error& error) { throw CLI::ValidationError(error.what()); }
+  // The output is checked before a render that may take hours.
+  auto ext = path_extension(opts.output);
+  if (ext != ".png" && ext != ".jpg" && ext != ".jpeg" && ext != ".hdr" &&
+      ext != ".exr")
     throw CLI::ValidationError(
         "--output", "unsupported image format \"" + opts.output +
                         "\" (use .png, .jpg, .hdr or .exr)");
+  try {
+    check_output_directory(opts.output);
+  } catch (const io_error& error) {
+    throw CLI::ValidationError("--output", error.what());
+  }
 }
 
 // Name of a batch image: out.png -> out-s0016.png.
@@ -181,22 +190,30 @@ static std::string batch_filename(const std::string& output, int samples) {
 // RENDER
 // -----------------------------------------------------------------------------
 
-// Open the viewer on the loaded scene.
-static void run_interactive(app_options& opts, scene_data& scene,
-    accel_data& accel, const lights_data& lights) {
+// Set by SIGINT and SIGTERM; the render asks it between tiles. (The one
+// global: a signal handler can reach nothing else.)
+static std::atomic<bool> interrupted = false;
+
+static void on_signal(int) { interrupted.store(true); }
+
+static bool is_interrupted(void*) { return interrupted.load(); }
+
+// Open the viewer on the render context.
+static void run_interactive(
+    const app_options& opts, const render_context& context) {
 #ifdef IMPLICIT_VIEWER
   auto viewer        = viewer_params{};
   viewer.name        = std::filesystem::path{opts.scene}.filename().string();
   viewer.output      = opts.output;
-  viewer.exposure    = opts.exposure;
-  viewer.filmic      = opts.filmic;
+  viewer.exposure    = opts.params.exposure;
+  viewer.filmic      = opts.params.filmic;
   viewer.frames      = opts.frames;
   viewer.screenshot  = opts.screenshot;
   viewer.orbit_frame = opts.orbit_frame;
   if (opts.orbit.size() == 2) viewer.orbit = {opts.orbit[0], opts.orbit[1]};
-  run_viewer(scene, accel, lights, opts.params, viewer);
+  run_viewer(context, opts.params, viewer);
 #else
-  (void)opts, (void)scene, (void)accel, (void)lights;
+  (void)opts, (void)context;
   throw io_error(
       "this build has no interactive viewer (IMPLICIT_BUILD_VIEWER=OFF); run "
       "without --interactive");
@@ -209,47 +226,41 @@ static int run(app_options& opts) {
 #endif
   auto warnings = std::vector<std::string>{};
   auto scene    = load_scene(opts.scene, warnings);
+  auto context  = make_render_context(std::move(scene), opts.params);
+  auto params   = resolve_params(*context, opts.params, opts.camera, warnings);
   for (auto& warning : warnings)
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
 
-  auto& params = opts.params;
-  auto  accel  = make_accel(scene, params.accel, params.march);
-  add_missing_camera(scene, accel.bounds);
-  params.camera = find_camera(scene, opts.camera);
-  auto lights   = make_lights(scene, accel);
-
-  auto has_emitters = !lights.lights.empty();
-  for (auto& object : accel.objects)
-    if (object.material >= 0 &&
-        max(scene.materials[object.material].emission) > 0)
-      has_emitters = true;
-  if (is_lit_shader(params.shader) && !has_emitters) {
-    std::fprintf(stderr,
-        "warning: the scene has no lights; rendering with the eyelight "
-        "shader\n");
-    params.shader = shader_type::eyelight;
-  }
-
   if (opts.interactive) {
-    run_interactive(opts, scene, accel, lights);
+    opts.params = params;
+    run_interactive(opts, *context);
     return 0;
   }
 
-  auto state    = make_state(scene, params);
-  auto progress = progress_state{};
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  auto callbacks = render_callbacks{nullptr, is_interrupted, nullptr};
+  auto state     = make_render_state(*context, params);
+  auto progress  = progress_state{};
   start_progress(progress, "render " + opts.scene, params.samples,
       !opts.quiet && stderr_is_terminal());
   for (auto sample = 0; sample < params.samples; sample++) {
-    trace_samples(state, scene, accel, lights, params);
+    if (!render_step(*context, state, 1, callbacks)) {
+      end_progress(progress);
+      std::fprintf(stderr,
+          "ypathtrace: interrupted after %d of %d samples; %s not written\n",
+          state.samples, params.samples, opts.output.c_str());
+      return 130;
+    }
     update_progress(progress, sample + 1);
     if (opts.savebatch > 0 && (sample + 1) % opts.savebatch == 0 &&
         sample + 1 < params.samples) {
-      save_image(batch_filename(opts.output, sample + 1), get_render(state),
-          opts.exposure, opts.filmic);
+      save_image(batch_filename(opts.output, sample + 1), get_image(state),
+          params.exposure, params.filmic);
     }
   }
   end_progress(progress);
-  save_image(opts.output, get_render(state), opts.exposure, opts.filmic);
+  save_image(opts.output, get_image(state), params.exposure, params.filmic);
   return 0;
 }
 
@@ -284,7 +295,6 @@ int main(int argc, char** argv) {
     if (needs_distributed(dist)) {
       dist.scene = opts.scene, dist.output = opts.output;
       dist.camera = opts.camera, dist.params = opts.params;
-      dist.exposure = opts.exposure, dist.filmic = opts.filmic;
       dist.savebatch = opts.savebatch, dist.quiet = opts.quiet;
       return run_distributed(dist);
     }

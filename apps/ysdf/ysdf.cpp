@@ -28,6 +28,7 @@
 #include "sdf/sdf_mesh_io.h"
 #include "sdf/sdf_program.h"
 #include "util/error.h"
+#include "util/file.h"
 
 using namespace implicit;
 
@@ -37,21 +38,10 @@ namespace {
 // FORMATS AND MESSAGES
 // -----------------------------------------------------------------------------
 
-// Lower-case extension with the dot.
-std::string extension(const std::string& filename) {
-  auto slash = filename.find_last_of('/');
-  auto dot   = filename.rfind('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash))
-    return "";
-  auto ext = filename.substr(dot);
-  for (auto& c : ext) c = (char)std::tolower((unsigned char)c);
-  return ext;
-}
-
 // Format of a grid to read: by extension, then by the first bytes (SDFGen
 // text starts with digits and spaces, a skanti header with int32 dims).
 grid_format input_format(const std::string& filename, bool binary, bool text) {
-  auto ext = extension(filename);
+  auto ext = path_extension(filename);
   if (ext == ".vdb") return grid_format::vdb;
   if (ext == ".vol") return grid_format::mitsuba;
   if (binary) return grid_format::skanti;
@@ -70,7 +60,7 @@ grid_format input_format(const std::string& filename, bool binary, bool text) {
 
 // Format of a grid to write: by extension; .sdf is text unless --binary.
 grid_format output_format(const std::string& filename, bool binary) {
-  auto ext = extension(filename);
+  auto ext = path_extension(filename);
   if (ext == ".vdb") return grid_format::vdb;
   if (ext == ".vol") return grid_format::mitsuba;
   if (ext == ".df" || ext == ".vox2") return grid_format::skanti;

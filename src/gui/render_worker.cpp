@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <utility>
 
 namespace implicit {
@@ -12,13 +13,24 @@ namespace implicit {
 // PASSES
 // -----------------------------------------------------------------------------
 
+// Whether the job `job` is no longer the latest (render_callbacks.cancel).
+struct cancel_check {
+  const std::atomic<int64_t>* latest = nullptr;
+  int64_t                     job    = 0;
+};
+
+static bool is_cancelled(void* user) {
+  auto& check = *(const cancel_check*)user;
+  return check.latest->load(std::memory_order_relaxed) != check.job;
+}
+
 // One sample per pixel, abandoned between tiles when a newer job arrives.
-bool trace_samples_cancellable(trace_state& state, const scene_data& scene,
-    const accel_data& accel, const lights_data& lights,
-    const trace_params& params, const std::atomic<int64_t>& latest,
-    int64_t job) {
-  return trace_samples_until(state, scene, accel, lights, params,
-      [&] { return latest.load(std::memory_order_relaxed) != job; });
+bool render_step_cancellable(const render_context& context,
+    const accel_data& accel, render_state& state,
+    const std::atomic<int64_t>& latest, int64_t job) {
+  auto check     = cancel_check{&latest, job};
+  auto callbacks = render_callbacks{nullptr, is_cancelled, &check};
+  return render_step(context, accel, state, 1, callbacks);
 }
 
 // Resolution / pratio, one sample.
@@ -49,32 +61,43 @@ static double elapsed(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+// The accel for a job: the context's, or the worker's own for another
+// iteration cap (rebuilt only when the cap changes).
+static const accel_data& job_accel(
+    render_worker& worker, const trace_params& params) {
+  auto& context = *worker.context;
+  auto  cap     = params.march.max_iterations;
+  if (cap == context.accel.march.max_iterations) return context.accel;
+  if (!worker.capped || worker.capped->march.max_iterations != cap) {
+    // Only the cap differs: the others set hit_min and stay as they were.
+    auto march           = context.accel.march;
+    march.max_iterations = cap;
+    worker.capped        = std::make_unique<accel_data>(
+        make_accel(context.scene, context.accel.type, march));
+  }
+  return *worker.capped;
+}
+
 // Preview, then passes until all samples are done or a newer job arrives.
 static void render_job_passes(
     render_worker& worker, const render_job& job, int64_t id) {
-  auto& scene                  = *worker.scene;
-  auto& params                 = job.params;
-  scene.cameras[params.camera] = job.camera;
-  // The only march parameter the viewer edits: the others set hit_min in
-  // make_accel() and must stay as they were.
-  worker.accel->march.max_iterations = params.march.max_iterations;
+  auto& context = *worker.context;
+  auto& params  = job.params;
+  auto& accel   = job_accel(worker, params);
   if (params.pratio > 1) {
     auto preview = preview_params(params);
-    auto state   = make_state(scene, preview);
+    auto state   = make_render_state(context, preview, job.camera);
     auto start   = std::chrono::steady_clock::now();
-    if (!trace_samples_cancellable(state, scene, *worker.accel, *worker.lights,
-            preview, worker.latest, id))
+    if (!render_step_cancellable(context, accel, state, worker.latest, id))
       return;
-    publish(worker, id, get_render(state), state.samples, true, elapsed(start));
+    publish(worker, id, get_image(state), state.samples, true, elapsed(start));
   }
-  auto state = make_state(scene, params);
+  auto state = make_render_state(context, params, job.camera);
   while (state.samples < params.samples) {
     auto start = std::chrono::steady_clock::now();
-    if (!trace_samples_cancellable(state, scene, *worker.accel, *worker.lights,
-            params, worker.latest, id))
+    if (!render_step_cancellable(context, accel, state, worker.latest, id))
       return;
-    publish(
-        worker, id, get_render(state), state.samples, false, elapsed(start));
+    publish(worker, id, get_image(state), state.samples, false, elapsed(start));
   }
 }
 
@@ -91,21 +114,22 @@ static void run_worker(render_worker& worker) {
       id            = worker.latest.load();
       worker.posted = false;
     }
-    render_job_passes(worker, job, id);
+    // The viewer posts only validated parameters; should a job still be
+    // refused, it is dropped rather than ending the program.
+    try {
+      render_job_passes(worker, job, id);
+    } catch (const std::exception&) { continue; }
   }
 }
 
 render_worker::~render_worker() { stop_worker(*this); }
 
-// Keep the scene, accel and lights, start the thread.
-void start_worker(render_worker& worker, scene_data& scene, accel_data& accel,
-    const lights_data& lights) {
+// Keep the context, start the thread.
+void start_worker(render_worker& worker, const render_context& context) {
   stop_worker(worker);
-  worker.scene  = &scene;
-  worker.accel  = &accel;
-  worker.lights = &lights;
-  worker.quit   = false;
-  worker.thread = std::thread{run_worker, std::ref(worker)};
+  worker.context = &context;
+  worker.quit    = false;
+  worker.thread  = std::thread{run_worker, std::ref(worker)};
 }
 
 // Post a job; the worker drops what it was doing between tiles.

@@ -15,7 +15,9 @@
 #include <mutex>
 #include <thread>
 
-#include "../trace/trace.h"
+#include <memory>
+
+#include "../trace/render.h"
 
 namespace implicit {
 
@@ -23,14 +25,13 @@ namespace implicit {
 // PASSES
 // -----------------------------------------------------------------------------
 
-// Add one sample to every pixel as trace_samples() does (same pixels, same
+// Add one sample to every pixel as render_step() does (same pixels, same
 // random streams, so the same image), but stop between tiles once `latest`
 // no longer equals `job`. Returns false, leaving the state unusable, when it
 // stopped early.
-bool trace_samples_cancellable(trace_state& state, const scene_data& scene,
-    const accel_data& accel, const lights_data& lights,
-    const trace_params& params, const std::atomic<int64_t>& latest,
-    int64_t job);
+bool render_step_cancellable(const render_context& context,
+    const accel_data& accel, render_state& state,
+    const std::atomic<int64_t>& latest, int64_t job);
 
 // The parameters of the preview: the resolution divided by pratio (at least
 // one pixel), one sample.
@@ -40,8 +41,8 @@ trace_params preview_params(const trace_params& params);
 // WORKER
 // -----------------------------------------------------------------------------
 
-// What to render: the parameters and the camera, which the worker copies into
-// the scene's slot params.camera before rendering.
+// What to render: the parameters and the camera (the viewer's own copy; the
+// context's cameras are not changed).
 struct render_job {
   trace_params params = {};
   camera_data  camera = {};
@@ -56,19 +57,19 @@ struct render_update {
   double     seconds = 0;      // time spent on the last pass
 };
 
-// The worker and what it shares with the interface thread. The thread reads
-// the scene, accel and lights given to start_worker() and writes only the
-// scene's camera slots and the accel's iteration cap, between passes;
-// nothing else may touch them while it runs.
+// The worker and what it shares with the interface thread. The thread only
+// reads the context given to start_worker(). A job whose iteration cap
+// (--stmaxiter) differs from the context's renders with the worker's own
+// accel, built for that cap over the same scene (objects in the same order,
+// so the context's lights fit it).
 struct render_worker {
   render_worker()                                = default;
   render_worker(const render_worker&)            = delete;
   render_worker& operator=(const render_worker&) = delete;
   ~render_worker();  // stops and joins the thread
 
-  scene_data*        scene  = nullptr;
-  accel_data*        accel  = nullptr;  // march.max_iterations set per job
-  const lights_data* lights = nullptr;
+  const render_context*       context = nullptr;
+  std::unique_ptr<accel_data> capped  = {};  // used by the worker thread only
 
   std::thread             thread = {};
   std::mutex              mutex  = {};
@@ -83,9 +84,8 @@ struct render_worker {
   std::atomic<int64_t> latest = 0;
 };
 
-// Start the thread. The scene, accel and lights must outlive the worker.
-void start_worker(render_worker& worker, scene_data& scene, accel_data& accel,
-    const lights_data& lights);
+// Start the thread. The context must outlive the worker.
+void start_worker(render_worker& worker, const render_context& context);
 
 // Cancel the current render and start `job`; returns its id at once.
 int64_t restart_render(render_worker& worker, const render_job& job);

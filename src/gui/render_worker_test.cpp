@@ -1,4 +1,4 @@
-// Tests for the viewer's background renderer: its passes are trace_samples'
+// Tests for the viewer's background renderer: its passes are render_step's
 // passes, a new job cancels the old one at once, and what it publishes is
 // what the command line would render.
 
@@ -18,28 +18,21 @@ using namespace implicit;
 namespace {
 
 // The example scene, made ready for tracing as ypathtrace does.
-struct example_scene {
-  scene_data  scene  = {};
-  accel_data  accel  = {};
-  lights_data lights = {};
-};
-
-void load_example(example_scene& example, trace_params& params) {
-  example.scene = load_scene(std::string{IMPLICIT_SOURCE_DIR} +
-                             "/examples/sdfunction/sdfunction.json");
-  example.accel = make_accel(example.scene, params.accel, params.march);
-  add_missing_camera(example.scene, example.accel.bounds);
-  params.camera  = find_camera(example.scene, "");
-  example.lights = make_lights(example.scene, example.accel);
+std::unique_ptr<const render_context> load_example(trace_params& params) {
+  auto context =
+      make_render_context(load_scene(std::string{IMPLICIT_SOURCE_DIR} +
+                                     "/examples/sdfunction/sdfunction.json"),
+          params);
+  params.camera = find_camera(context->scene, "");
+  return context;
 }
 
-// What `ypathtrace` renders for these parameters (the scene's own camera).
-image_data render_cli(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, const trace_params& params) {
-  auto state = make_state(scene, params);
-  for (auto s = 0; s < params.samples; s++)
-    trace_samples(state, scene, accel, lights, params);
-  return get_render(state);
+// What `ypathtrace` renders for these parameters and this camera.
+image_data render_cli(const render_context& context, const accel_data& accel,
+    const trace_params& params, const camera_data& camera) {
+  auto state = make_render_state(context, params, camera);
+  CHECK(render_step(context, accel, state, params.samples, {}));
+  return get_image(state);
 }
 
 bool same_pixels(const image_data& a, const image_data& b) {
@@ -78,29 +71,26 @@ render_update wait_finished(render_worker& worker, int64_t job, int samples,
 
 }  // namespace
 
-TEST_CASE("render_worker: a cancellable pass is a trace_samples pass") {
+TEST_CASE("render_worker: a cancellable pass is a render_step pass") {
   auto params       = trace_params{};
   params.resolution = 40;
-  auto example      = example_scene{};
-  load_example(example, params);
-  auto& [scene, accel, lights] = example;
-  auto reference               = make_state(scene, params);
-  auto state                   = make_state(scene, params);
-  auto latest                  = std::atomic<int64_t>{7};
+  auto  context     = load_example(params);
+  auto& accel       = context->accel;
+  auto  reference   = make_render_state(*context, params);
+  auto  state       = make_render_state(*context, params);
+  auto  latest      = std::atomic<int64_t>{7};
   for (auto pass = 0; pass < 2; pass++) {
-    trace_samples(reference, scene, accel, lights, params);
-    CHECK(trace_samples_cancellable(
-        state, scene, accel, lights, params, latest, 7));
+    CHECK(render_step(*context, reference));
+    CHECK(render_step_cancellable(*context, accel, state, latest, 7));
   }
   CHECK(state.samples == 2);
-  CHECK(same_pixels(get_render(state), get_render(reference)));
+  CHECK(same_pixels(get_image(state), get_image(reference)));
   CHECK(state.evaluations == reference.evaluations);
 
   // A newer job: no tile is traced and the sample is not counted.
-  auto fresh = make_state(scene, params);
+  auto fresh = make_render_state(*context, params);
   latest     = 8;
-  CHECK_FALSE(trace_samples_cancellable(
-      fresh, scene, accel, lights, params, latest, 7));
+  CHECK_FALSE(render_step_cancellable(*context, accel, fresh, latest, 7));
   CHECK(fresh.samples == 0);
   auto traced = 0;
   for (auto& p : fresh.accumulated) traced += (p.x != 0 || p.w != 0);
@@ -128,14 +118,12 @@ TEST_CASE(
   params.resolution = 48;
   params.samples    = 3;
   params.pratio     = 4;
-  auto example      = example_scene{};
-  load_example(example, params);
-  auto expected =
-      render_cli(example.scene, example.accel, example.lights, params);
-  auto camera = example.scene.cameras[params.camera];
+  auto context      = load_example(params);
+  auto camera       = context->scene.cameras[params.camera];
+  auto expected     = render_cli(*context, context->accel, params, camera);
 
   auto worker = render_worker{};
-  start_worker(worker, example.scene, example.accel, example.lights);
+  start_worker(worker, *context);
   auto job      = restart_render(worker, {params, camera});
   auto previews = 0, backwards = 0;
   auto last = wait_finished(worker, job, params.samples, previews, backwards);
@@ -177,12 +165,11 @@ TEST_CASE("render_worker: a new job cancels the running one") {
   auto params       = trace_params{};
   params.resolution = 64;
   params.pratio     = 8;
-  auto example      = example_scene{};
-  load_example(example, params);
-  auto camera = example.scene.cameras[params.camera];
+  auto context      = load_example(params);
+  auto camera       = context->scene.cameras[params.camera];
 
   auto worker = render_worker{};
-  start_worker(worker, example.scene, example.accel, example.lights);
+  start_worker(worker, *context);
   // A job of a million samples: only cancellation lets the next one run.
   auto slow    = params;
   slow.samples = 1 << 20;
@@ -193,7 +180,7 @@ TEST_CASE("render_worker: a new job cancels the running one") {
   navigate_camera(moved, navigation_mode::orbit, {40, 10}, 0);
   auto fast                 = params;
   fast.samples              = 2;
-  fast.march.max_iterations = 3;  // the worker must set the accel's cap
+  fast.march.max_iterations = 3;  // the worker must use this cap
   fast.shader               = shader_type::normal;
   auto job                  = restart_render(worker, {fast, moved});
   auto previews = 0, backwards = 0;
@@ -203,18 +190,17 @@ TEST_CASE("render_worker: a new job cancels the running one") {
   CHECK(backwards == 0);
 
   // The same image rendered directly with the moved camera and the
-  // iteration cap, and different from the unmoved camera's.
-  auto scene = example.scene;  // has `moved` in its slot
-  CHECK(scene.cameras[params.camera].frame.o == moved.frame.o);
-  auto& capped = example.accel;  // the worker set its cap
-  CHECK(capped.march.max_iterations == 3);
-  auto expected = render_cli(scene, capped, example.lights, fast);
+  // iteration cap, and different from the unmoved camera's; the context's
+  // accel and cameras are as they were.
+  CHECK(context->accel.march.max_iterations == params.march.max_iterations);
+  CHECK(context->scene.cameras[params.camera].frame.o == camera.frame.o);
+  auto march           = context->accel.march;
+  march.max_iterations = 3;
+  auto capped          = make_accel(context->scene, context->accel.type, march);
+  auto expected        = render_cli(*context, capped, fast, moved);
   CHECK(same_pixels(last.image, expected));
-  scene.cameras[params.camera] = camera;
   CHECK_FALSE(
-      same_pixels(last.image, render_cli(scene, capped, example.lights, fast)));
-  capped.march.max_iterations = params.march.max_iterations;
-  auto uncapped =
-      render_cli(example.scene, example.accel, example.lights, fast);
+      same_pixels(last.image, render_cli(*context, capped, fast, camera)));
+  auto uncapped = render_cli(*context, context->accel, fast, moved);
   CHECK_FALSE(same_pixels(last.image, uncapped));
 }

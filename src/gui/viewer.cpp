@@ -234,9 +234,10 @@ static bool combo_enum(
 
 // Render settings (Yocto/GL's ranges); returns whether any changed.
 static bool draw_render_settings(viewer_state& state) {
-  auto& params = state.params;
-  auto  edited = false;
-  auto  label  = camera_label(state, params.camera);
+  auto& params   = state.params;
+  auto  previous = params;
+  auto  edited   = false;
+  auto  label    = camera_label(state, params.camera);
   if (ImGui::BeginCombo("camera", label.c_str())) {
     for (auto i = 0; i < (int)state.cameras.size(); i++) {
       if (ImGui::Selectable(
@@ -275,6 +276,14 @@ static bool draw_render_settings(viewer_state& state) {
   params.pratio               = std::max(params.pratio, 1);
   params.clamp                = std::max(params.clamp, 1e-3f);
   params.march.max_iterations = std::max(params.march.max_iterations, 1);
+  // Anything else the render core refuses (NaN, values too large) is undone:
+  // the worker renders only valid parameters.
+  try {
+    validate_params(params);
+  } catch (const io_error&) {
+    params = previous;
+    return false;
+  }
   return edited;
 }
 
@@ -369,20 +378,20 @@ static bool navigate(viewer_state& state) {
 }
 
 // The window and the loop.
-void run_viewer(scene_data& scene, accel_data& accel, const lights_data& lights,
-    const trace_params& params, const viewer_params& viewer) {
+void run_viewer(const render_context& context, const trace_params& params,
+    const viewer_params& viewer) {
   check_display();
   auto session = gl_session{};
   open_window(session, "ypathtrace - " + viewer.name, viewer.window);
 
   auto state     = viewer_state{};
   state.params   = params;
-  state.cameras  = scene.cameras;
+  state.cameras  = context.scene.cameras;
   state.exposure = viewer.exposure;
   state.filmic   = viewer.filmic;
   // Declared after the session, so it is joined before the window goes.
   auto worker = render_worker{};
-  start_worker(worker, scene, accel, lights);
+  start_worker(worker, context);
   restart(state, worker);
 
   auto frame      = 0;

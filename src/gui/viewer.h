@@ -9,7 +9,7 @@
 
 #include <string>
 
-#include "../trace/trace.h"
+#include "../trace/render.h"
 
 namespace implicit {
 
@@ -46,9 +46,9 @@ struct viewer_params {
 void check_display();
 
 // Open the window and run until it is closed (or the automation ends). The
-// scene's camera slots are overwritten as the user navigates. Throws
-// io_error when no window or OpenGL 3.3 context can be had.
-void run_viewer(scene_data& scene, accel_data& accel, const lights_data& lights,
-    const trace_params& params, const viewer_params& viewer);
+// context is only read (the cameras the user moves are the viewer's own
+// copies). Throws io_error when no window or OpenGL 3.3 context can be had.
+void run_viewer(const render_context& context, const trace_params& params,
+    const viewer_params& viewer);
 
 }  // namespace implicit

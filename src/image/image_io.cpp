@@ -28,6 +28,7 @@
 #include <memory>
 
 #include "../util/error.h"
+#include "../util/file.h"
 
 namespace implicit {
 
@@ -38,16 +39,9 @@ namespace implicit {
 // The kinds of file we read and write, chosen by extension.
 enum class image_format { ldr, hdr, exr, unknown };
 
-// Lower-case extension with its dot ("" when there is none).
-static std::string get_extension(const std::string& filename) {
-  auto ext = std::filesystem::path(filename).extension().string();
-  for (auto& c : ext) c = (char)std::tolower((unsigned char)c);
-  return ext;
-}
-
 // The format of a file name, by extension.
 static image_format get_format(const std::string& filename) {
-  auto ext = get_extension(filename);
+  auto ext = path_extension(filename);
   if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tga" ||
       ext == ".bmp")
     return image_format::ldr;
@@ -277,7 +271,7 @@ static std::vector<uint8_t> to_bytes(
 // Write an 8-bit file through stb; returns false when stb fails to encode.
 static bool write_ldr(std::FILE* file, const std::string& filename,
     const image_data& image, float exposure, bool filmic) {
-  auto ext   = get_extension(filename);
+  auto ext   = path_extension(filename);
   auto bytes = to_bytes(image, exposure, filmic);
   auto w = image.width, h = image.height;
   if (ext == ".png")
@@ -334,16 +328,6 @@ static void write_exr(
   output.writePixels(image.height);
 }
 
-// The temporary file for a target: ".<name>.tmp<pid>" in the same directory,
-// so that the final rename stays on one file system and is atomic. The pid
-// keeps two processes writing the same target apart.
-static std::string temporary_filename(const std::string& filename) {
-  auto path = std::filesystem::path(filename);
-  auto name = "." + path.filename().string() + ".tmp" +
-              std::to_string((long long)getpid());
-  return (path.parent_path() / name).string();
-}
-
 // Save linear RGBA by extension, through a temporary file and a rename.
 void save_image(const std::string& filename, const image_data& image,
     float exposure, bool filmic) {
@@ -359,7 +343,7 @@ void save_image(const std::string& filename, const image_data& image,
                       " pixels, expected " + std::to_string(image.width) + "x" +
                       std::to_string(image.height));
 
-  auto temporary = temporary_filename(filename);
+  auto temporary = temporary_path(filename);
   auto file      = file_ptr{std::fopen(temporary.c_str(), "wb")};
   if (!file)
     throw_io_error(filename, "cannot write (" + errno_reason(errno) + ")");

@@ -17,7 +17,12 @@ namespace implicit {
 
 inline constexpr float pif     = 3.14159265358979323846f;
 inline constexpr float flt_max = std::numeric_limits<float>::max();
-inline constexpr float flt_min = std::numeric_limits<float>::lowest();
+// The most negative float (numeric_limits::lowest(), not ::min(), which is
+// the smallest positive normal float).
+inline constexpr float flt_lowest = std::numeric_limits<float>::lowest();
+// The same value under its old, misleading name, until sdf_program.cpp (owned
+// elsewhere) moves to flt_lowest. New code uses flt_lowest.
+inline constexpr float flt_min = flt_lowest;
 inline constexpr float flt_eps = std::numeric_limits<float>::epsilon();
 inline constexpr float flt_inf = std::numeric_limits<float>::infinity();
 
@@ -274,7 +279,7 @@ inline frame3f basis_fromz(vec3f v) {
 
 struct bbox3f {
   vec3f min = {flt_max, flt_max, flt_max};
-  vec3f max = {flt_min, flt_min, flt_min};
+  vec3f max = {flt_lowest, flt_lowest, flt_lowest};
 };
 
 inline constexpr bbox3f invalid_bbox = {};

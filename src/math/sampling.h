@@ -11,6 +11,28 @@
 
 namespace implicit {
 
+// -----------------------------------------------------------------------------
+// LAT-LONG MAPPING (environments)
+// -----------------------------------------------------------------------------
+
+// Direction in an environment's frame for lat-long texture coordinates uv:
+// u turns phi from +x toward +z, v = theta / pi from +y (up) to -y.
+inline vec3f latlong_direction(vec2f uv) {
+  auto phi = 2 * pif * uv.x, theta = pif * uv.y;
+  return {std::cos(phi) * std::sin(theta), std::cos(theta),
+      std::sin(phi) * std::sin(theta)};
+}
+
+// Its inverse for a unit direction. atan2 keeps small polar angles accurate
+// where acos(y) rounds to 0.
+inline vec2f latlong_uv(vec3f direction) {
+  auto u = std::atan2(direction.z, direction.x) / (2 * pif);
+  if (u < 0) u += 1;
+  auto sin_theta =
+      std::sqrt(direction.x * direction.x + direction.z * direction.z);
+  return {u, std::atan2(sin_theta, direction.y) / pif};
+}
+
 // Uniform direction on the unit sphere.
 inline vec3f sample_sphere(vec2f ruv) {
   auto z   = 2 * ruv.y - 1;

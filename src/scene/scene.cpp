@@ -2,6 +2,7 @@
 
 #include "scene.h"
 
+#include "../math/sampling.h"
 #include "../util/error.h"
 
 namespace implicit {
@@ -103,11 +104,8 @@ vec4f eval_texture(const scene_data& scene, int texture, vec2f uv) {
 vec3f eval_environment(const scene_data& scene,
     const environment_data& environment, vec3f direction) {
   auto wl = transform_direction(inverse(environment.frame), direction);
-  auto u  = std::atan2(wl.z, wl.x) / (2 * pif);
-  if (u < 0) u += 1;
-  auto v = std::acos(clamp(wl.y, -1.0f, 1.0f)) / pif;
   return environment.emission *
-         xyz(eval_texture(scene, environment.emission_tex, {u, v}));
+         xyz(eval_texture(scene, environment.emission_tex, latlong_uv(wl)));
 }
 
 vec3f eval_environment(const scene_data& scene, vec3f direction) {

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "../../tests/shared_data.h"
 #include "../util/error.h"
 
 using namespace implicit;
@@ -527,6 +528,7 @@ TEST_CASE("scene_io missing material textures warn") {
 }
 
 TEST_CASE("scene_io seed scenes") {
+  IMPLICIT_SKIP_WITHOUT_SHARED("seed scenes; the examples cover the format");
   auto dir       = std::string{IMPLICIT_SHARED_DIR} + "/seed_scenes/tests/";
   auto read_text = [](const std::string& filename) {
     auto stream = std::ifstream(filename);

@@ -19,8 +19,9 @@ static mat3f random_rotation(rng_state& rng) {
   return {frame.x * c + frame.y * s, frame.y * c - frame.x * s, frame.z};
 }
 
-// One primitive of each kind, about one unit across; `center` is its centre
-// in local coordinates (boxes have a corner at the origin).
+// One primitive of each kind (0 box, 1 sphere, 2 torus, 3 capped cone; any
+// other kind leaves the default node), about one unit across; `center` is its
+// centre in local coordinates (boxes have a corner at the origin).
 static sdf_node random_primitive(int kind, rng_state& rng, vec3f& center) {
   auto node = sdf_node{};
   center    = {0, 0, 0};
@@ -39,7 +40,7 @@ static sdf_node random_primitive(int kind, rng_state& rng, vec3f& center) {
       node.radius  = 0.4f;
       node.radius2 = 0.12f;
       break;
-    default:
+    case 3:
       node.type    = sdf_type::capped_cone;
       node.height  = 0.5f;
       node.radius  = 0.5f;

@@ -62,7 +62,7 @@ void update_grid_accel(grid_data& grid) {
         auto hi    = vec3i{std::min(lo.x + grid_brick_size, dims.x - 1),
             std::min(lo.y + grid_brick_size, dims.y - 1),
             std::min(lo.z + grid_brick_size, dims.z - 1)};
-        auto range = grid_brick_range{flt_max, flt_min};
+        auto range = grid_brick_range{flt_max, flt_lowest};
         for (auto k = lo.z; k <= hi.z; k++) {
           for (auto j = lo.y; j <= hi.y; j++) {
             for (auto i = lo.x; i <= hi.x; i++) {
@@ -513,7 +513,7 @@ bool intersect_grid(
   // The box interval of the whole line, then clipped to the ray's range.
   auto box = grid_bounds(grid);
   auto b0 = 0.0f, b1 = 0.0f;
-  if (!intersect_bbox(ray3f{ray.o, ray.d, flt_min, flt_max}, box, b0, b1))
+  if (!intersect_bbox(ray3f{ray.o, ray.d, flt_lowest, flt_max}, box, b0, b1))
     return false;
   auto t0 = std::max(b0, ray.tmin), t1 = std::min(b1, ray.tmax);
   if (!(t0 <= t1)) return false;

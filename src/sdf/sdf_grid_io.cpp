@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "../util/error.h"
+#include "../util/file.h"
 #include "sdf_grid_file.h"
 
 namespace implicit {
@@ -55,7 +56,7 @@ mapped_file::~mapped_file() {
 }
 
 output_file::output_file(const std::string& name)
-    : filename{name}, temporary{name + ".tmp"} {
+    : filename{name}, temporary{temporary_path(name)} {
   file = std::fopen(temporary.c_str(), "wb");
   if (!file)
     throw_io_error(
@@ -95,9 +96,7 @@ std::string token_excerpt(const char* begin, const char* end) {
 }
 
 grid_format grid_format_from_uri(const std::string& uri, bool binary) {
-  auto dot = uri.rfind('.');
-  auto ext = dot == std::string::npos ? std::string{} : uri.substr(dot);
-  for (auto& c : ext) c = (char)std::tolower((unsigned char)c);
+  auto ext = path_extension(uri);
   if (ext == ".vdb") return grid_format::vdb;
   if (ext == ".vol") return grid_format::mitsuba;
   return binary ? grid_format::skanti : grid_format::sdfgen;

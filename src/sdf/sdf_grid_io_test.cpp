@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "../../tests/shared_data.h"
 #include "../util/error.h"
 
 using namespace implicit;
@@ -353,6 +354,7 @@ TEST_CASE("grid io refuses bad OpenVDB files") {
 }
 
 TEST_CASE("grid io skanti matrix order is detected on the shared samples") {
+  IMPLICIT_SKIP_WITHOUT_SHARED("sample grids; round trips cover skanti");
   auto col =
       load_grid(shared_path("skanti_layout_exact_sphere_colmajor_sdf_pdf.sdf"),
           grid_format::skanti);
@@ -376,6 +378,7 @@ TEST_CASE("grid io skanti matrix order is detected on the shared samples") {
 }
 
 TEST_CASE("grid io loads every shared sample or says why not") {
+  IMPLICIT_SKIP_WITHOUT_SHARED("sample grids; round trips cover the formats");
   struct sample {
     std::string name;
     grid_format format;
@@ -431,6 +434,7 @@ TEST_CASE("grid io loads every shared sample or says why not") {
 }
 
 TEST_CASE("grid io the clipped SDFGen sphere is closed by the box") {
+  IMPLICIT_SKIP_WITHOUT_SHARED("the clipped SDFGen sphere sample");
   // pad1: the + faces sit exactly on the sphere (values ~6e-8 there), so
   // rays leave through the grid boundary; none may escape the solid.
   auto grid   = load_grid(shared_path("sdfgen_icosphere_r0.5_dx0.05_pad1.sdf"),

@@ -19,7 +19,7 @@ grid_stats compute_grid_stats(const grid_data& grid) {
   auto stats = grid_stats{};
   if (grid.values.empty()) return stats;
   stats.min = flt_max;
-  stats.max = flt_min;
+  stats.max = flt_lowest;
   for (auto v : grid.values) {
     stats.min = std::min(stats.min, v);
     stats.max = std::max(stats.max, v);

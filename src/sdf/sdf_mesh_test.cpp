@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../../tests/shared_data.h"
 #include "../util/error.h"
 #include "sdf_mesh_io.h"
 
@@ -249,6 +250,7 @@ TEST_CASE("grid mesh to grid and back") {
 }
 
 TEST_CASE("grid mesh loads the shared bunny") {
+  IMPLICIT_SKIP_WITHOUT_SHARED("bunny mesh; the PLY tests make their own");
   auto mesh = load_mesh(std::string(IMPLICIT_SHARED_DIR) + "/meshes/bunny.ply");
   CHECK(mesh.positions.size() == 72378);
   CHECK(mesh.triangles.size() == 144046);

@@ -98,13 +98,6 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
 // SAMPLING
 // -----------------------------------------------------------------------------
 
-// Direction in an environment's frame for texture coordinates uv.
-static vec3f environment_direction(vec2f uv) {
-  auto phi = 2 * pif * uv.x, theta = pif * uv.y;
-  return {std::cos(phi) * std::sin(theta), std::cos(theta),
-      std::sin(phi) * std::sin(theta)};
-}
-
 vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, vec3f position, float rl, float rel, vec2f ruv) {
   if (lights.lights.empty()) return {0, 0, 0};
@@ -132,7 +125,7 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
       auto idx = sample_discrete(light.cdf, rel);
       auto uv  = vec2f{((idx % light.width) + ruv.x) / light.width,
           ((idx / light.width) + ruv.y) / light.height};
-      return transform_direction(environment.frame, environment_direction(uv));
+      return transform_direction(environment.frame, latlong_direction(uv));
     }
   }
   return {0, 0, 0};
@@ -153,7 +146,7 @@ static float shape_light_pdf(
   if (light.shape == light_shape::box) {
     auto box = bbox3f{{0, 0, 0}, node.size};
     auto t0 = 0.0f, t1 = 0.0f;
-    auto unclipped = ray3f{ray.o, ray.d, flt_min, flt_max};
+    auto unclipped = ray3f{ray.o, ray.d, flt_lowest, flt_max};
     if (!intersect_bbox(unclipped, box, t0, t1)) return 0;
     for (auto t : {t0, t1}) {
       // The face is the axis where the point sits closest to a side.
@@ -194,14 +187,11 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
         }
         auto& environment = scene.environments[light.environment];
         auto  wl = transform_direction(inverse(environment.frame), direction);
-        auto  u  = std::atan2(wl.z, wl.x) / (2 * pif);
-        if (u < 0) u += 1;
-        // atan2 keeps small polar angles accurate where acos(y) rounds to 0.
-        auto sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
-        auto theta     = std::atan2(sin_theta, wl.y);
-        auto i         = clamp((int)(u * light.width), 0, light.width - 1);
-        auto j = clamp((int)(theta / pif * light.height), 0, light.height - 1);
-        auto prob = sample_discrete_pdf(light.cdf, j * light.width + i);
+        auto  uv = latlong_uv(wl);
+        auto  sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
+        auto  i         = clamp((int)(uv.x * light.width), 0, light.width - 1);
+        auto  j    = clamp((int)(uv.y * light.height), 0, light.height - 1);
+        auto  prob = sample_discrete_pdf(light.cdf, j * light.width + i);
         if (sin_theta > 0)
           pdf +=
               prob * light.width * light.height / (2 * pif * pif * sin_theta);

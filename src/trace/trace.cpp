@@ -96,6 +96,10 @@ static float power_heuristic(float pdf, float other) {
   return pdf * pdf / (pdf * pdf + other * other);
 }
 
+// Most surfaces a light sample crosses before it gives up (opacity and
+// volumetric boundaries).
+inline constexpr int max_crossings = 16;
+
 // Radiance arriving at a point from `ray` without scattering: the emission of
 // the first surface that blocks it, or the environment. Surfaces with opacity
 // let (1 - opacity) through and volumetric (pass-through) objects attenuate
@@ -107,7 +111,7 @@ static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
   auto inside        = std::array<int, 8>{};  // volumetric objects entered
   auto inside_count  = 0;
   auto entry         = std::array<vec3f, 8>{};
-  for (auto crossing = 0; crossing < 16; crossing++) {
+  for (auto crossing = 0; crossing < max_crossings; crossing++) {
     auto isec = intersect_scene(accel, ray);
     evaluations += isec.evaluations;
     if (!isec.hit)
@@ -148,7 +152,9 @@ struct volume_stack {
 };
 
 // The random numbers of one path: the next dimensions of the pixel's
-// scrambled Sobol sample, or the pixel's PCG32 stream.
+// scrambled Sobol sample, or the pixel's PCG32 stream. Callers draw them into
+// named locals, one statement each, so that which dimension feeds which
+// parameter does not depend on the compiler's argument evaluation order.
 struct path_sampler {
   sampler_type type  = sampler_type::sobol;
   sobol_state  sobol = {};
@@ -165,177 +171,271 @@ static vec2f next2f(path_sampler& sampler) {
                                              : rand2f(*sampler.rng);
 }
 
-// Path tracer. One-sample MIS (the seed's): each bounce samples the BSDF or
-// the lights 50/50 and weights by the mixture pdf; emission is collected
+// Path-length policy of shade_implicit (Yocto/GL's values).
+inline constexpr int   max_opacity_skips    = 128;  // straight-through hits
+inline constexpr int   roulette_min_bounce  = 3;    // roulette after this
+inline constexpr float roulette_max_survive = 0.99f;
+
+// The state of one path.
+struct path_state {
+  vec3f        radiance      = {0, 0, 0};
+  vec3f        weight        = {1, 1, 1};
+  ray3f        ray           = {};
+  bool         hit           = false;
+  int          opacity_skips = 0;
+  volume_stack volumes       = {};
+  // Two-sample MIS: the BSDF pdf of the direction that led here, or 0 when
+  // emission found along it needs no weight (camera, delta, one-sample).
+  float bsdf_pdf = 0;
+  vec3f from     = {0, 0, 0};
+};
+
+// The one sample/pdf/weight step: multiply the path weight by f / pdf.
+// Returns false (the path ends) for a null direction or pdf.
+static bool update_weight(
+    path_state& path, vec3f incoming, vec3f f, float pdf) {
+  if (incoming == vec3f{0, 0, 0} || pdf <= 0) return false;
+  path.weight *= f / pdf;
+  return true;
+}
+
+// Weight for emission reached by a BSDF-sampled direction.
+static float emission_weight(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const path_state& path, vec3f direction) {
+  if (path.bsdf_pdf <= 0) return 1.0f;
+  return power_heuristic(path.bsdf_pdf,
+      sample_lights_pdf(scene, accel, lights, path.from, direction));
+}
+
+// A light direction from `position` (three numbers drawn in order).
+static vec3f sample_lights_next(const scene_data& scene,
+    const accel_data& accel, const lights_data& lights, vec3f position,
+    path_sampler& sampler) {
+  auto rl  = next1f(sampler);
+  auto rel = next1f(sampler);
+  auto ruv = next2f(sampler);
+  return sample_lights(scene, accel, lights, position, rl, rel, ruv);
+}
+
+// Scattering in a medium: one-sample mixture of the phase function and the
+// lights. Returns false when the path ends.
+static bool shade_medium(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, bool use_lights, path_state& path,
+    vec3f position, path_sampler& sampler) {
+  auto& medium   = path.volumes.items[path.volumes.size - 1];
+  auto  outgoing = -path.ray.d;
+  auto  incoming = vec3f{0, 0, 0};
+  auto  rmix     = use_lights ? next1f(sampler) : 0.0f;
+  if (rmix < 0.5f) {
+    auto rl  = next1f(sampler);
+    auto ru  = next2f(sampler);
+    incoming = sample_scattering(medium, outgoing, rl, ru);
+  } else {
+    incoming = sample_lights_next(scene, accel, lights, position, sampler);
+  }
+  if (incoming == vec3f{0, 0, 0}) return false;
+  auto pdf = sample_scattering_pdf(medium, outgoing, incoming);
+  if (use_lights)
+    pdf = 0.5f * pdf +
+          0.5f * sample_lights_pdf(scene, accel, lights, position, incoming);
+  if (!update_weight(
+          path, incoming, eval_scattering(medium, outgoing, incoming), pdf))
+    return false;
+  path.bsdf_pdf = 0;
+  path.ray      = {position, incoming, 0, flt_max};
+  return true;
+}
+
+// Delta lobes (mirror, glass, volumetric boundaries).
+static vec3f shade_delta(
+    path_state& path, const surface_point& point, path_sampler& sampler) {
+  auto& material = point.material;
+  auto  outgoing = -path.ray.d;
+  auto  rl       = next1f(sampler);
+  auto  incoming = sample_delta(material, point.normal, outgoing, rl);
+  if (incoming == vec3f{0, 0, 0}) return incoming;
+  auto pdf = sample_delta_pdf(material, point.normal, outgoing, incoming);
+  if (!update_weight(path, incoming,
+          eval_delta(material, point.normal, outgoing, incoming), pdf))
+    return {0, 0, 0};
+  // A volumetric boundary only lets the path through, and light samples see
+  // through it too (eval_unscattered): emission found beyond it keeps the MIS
+  // weight of the sample that led here.
+  if (material.type != material_type::volumetric) path.bsdf_pdf = 0;
+  return incoming;
+}
+
+// Two-sample MIS: a light sample traced to whatever emits along it, then a
+// BSDF sample that continues the path, both weighted by the power heuristic.
+static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, path_state& path, const surface_point& point,
+    path_sampler& sampler, int64_t& evaluations) {
+  auto& material = point.material;
+  auto  outgoing = -path.ray.d;
+  auto  light =
+      sample_lights_next(scene, accel, lights, point.position, sampler);
+  if (light != vec3f{0, 0, 0}) {
+    auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
+    auto lpdf = sample_lights_pdf(scene, accel, lights, point.position, light);
+    if (bsdfcos != vec3f{0, 0, 0} && lpdf > 0) {
+      auto bpdf = sample_bsdfcos_pdf(material, point.normal, outgoing, light);
+      auto le   = eval_unscattered(
+            scene, accel, spawn_ray(accel, point, light), evaluations);
+      path.radiance +=
+          path.weight * bsdfcos * le * (power_heuristic(lpdf, bpdf) / lpdf);
+    }
+  }
+  auto rl       = next1f(sampler);
+  auto ru       = next2f(sampler);
+  auto incoming = sample_bsdfcos(material, point.normal, outgoing, rl, ru);
+  if (incoming == vec3f{0, 0, 0}) return incoming;
+  auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
+  if (!update_weight(path, incoming,
+          eval_bsdfcos(material, point.normal, outgoing, incoming), pdf))
+    return {0, 0, 0};
+  path.bsdf_pdf = pdf;
+  path.from     = point.position;
+  return incoming;
+}
+
+// One-sample MIS (the seed's): the BSDF or the lights 50/50, weighted by the
+// mixture pdf; BSDF sampling only without lights.
+static vec3f shade_one_sample(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, bool use_lights, path_state& path,
+    const surface_point& point, path_sampler& sampler) {
+  auto& material = point.material;
+  auto  outgoing = -path.ray.d;
+  auto  incoming = vec3f{0, 0, 0};
+  auto  rmix     = use_lights ? next1f(sampler) : 0.0f;
+  if (rmix < 0.5f) {
+    auto rl  = next1f(sampler);
+    auto ru  = next2f(sampler);
+    incoming = sample_bsdfcos(material, point.normal, outgoing, rl, ru);
+  } else {
+    incoming =
+        sample_lights_next(scene, accel, lights, point.position, sampler);
+  }
+  if (incoming == vec3f{0, 0, 0}) return incoming;
+  auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
+  if (use_lights)
+    pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(scene, accel, lights,
+                                  point.position, incoming);
+  if (!update_weight(path, incoming,
+          eval_bsdfcos(material, point.normal, outgoing, incoming), pdf))
+    return {0, 0, 0};
+  path.bsdf_pdf = 0;
+  return incoming;
+}
+
+// Crossing the boundary of a closed medium enters or leaves it.
+static void update_volumes(path_state& path, const surface_point& point,
+    vec3f outgoing, vec3f incoming) {
+  auto& material = point.material;
+  if (!is_volumetric(material) ||
+      dot(point.normal, outgoing) * dot(point.normal, incoming) >= 0)
+    return;
+  auto& volumes = path.volumes;
+  if (dot(point.normal, incoming) < 0) {
+    if (volumes.size < (int)volumes.items.size())
+      volumes.items[volumes.size++] = material;
+  } else if (volumes.size > 0) {
+    volumes.size--;
+  }
+}
+
+// Path tracer: per bounce, a free-flight sample inside media, then the
+// strategy of the point reached (shade_medium, shade_delta, shade_two_sample,
+// shade_one_sample), then Russian roulette. One-sample MIS collects emission
 // where the path lands, so emitters that cannot be sampled are still found.
-// Two-sample MIS: each surface bounce outside media traces a light sample
-// and continues with a BSDF sample, both weighted by the power heuristic.
 static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const ray3f& camera_ray,
     const trace_params& params, path_sampler& sampler, int64_t& evaluations) {
-  auto radiance      = vec3f{0, 0, 0};
-  auto weight        = vec3f{1, 1, 1};
-  auto ray           = camera_ray;
-  auto hit           = false;
-  auto use_lights    = params.implicit_mis && !lights.lights.empty();
-  auto two_sample    = use_lights && params.mis == mis_type::two_sample;
-  auto opacity_skips = 0;
-  auto volumes       = volume_stack{};
-  // Two-sample MIS: the BSDF pdf of the direction that led here, or 0 when
-  // emission found along it needs no weight (camera, delta, one-sample).
-  auto bsdf_pdf = 0.0f;
-  auto from     = ray.o;
-  // Weight for emission reached by a BSDF-sampled direction.
-  auto emission_weight = [&](vec3f direction) {
-    if (bsdf_pdf <= 0) return 1.0f;
-    return power_heuristic(
-        bsdf_pdf, sample_lights_pdf(scene, accel, lights, from, direction));
-  };
-  for (auto bounce = 0; bounce < params.bounces; bounce++) {
-    auto isec = intersect_scene(accel, ray);
+  auto path       = path_state{};
+  path.ray        = camera_ray;
+  path.from       = camera_ray.o;
+  auto use_lights = params.implicit_mis && !lights.lights.empty();
+  auto two_sample = use_lights && params.mis == mis_type::two_sample;
+  // Straight-through opacity hits do not count as bounces.
+  auto bounce = 0;
+  while (bounce < params.bounces) {
+    auto isec = intersect_scene(accel, path.ray);
     evaluations += isec.evaluations;
     if (!isec.hit) {
       if (bounce > 0 || !params.envhidden)
-        radiance +=
-            weight * eval_environment(scene, ray.d) * emission_weight(ray.d);
+        path.radiance +=
+            path.weight * eval_environment(scene, path.ray.d) *
+            emission_weight(scene, accel, lights, path, path.ray.d);
       break;
     }
 
     // Inside a medium: sample a scattering distance before the surface.
     auto in_volume = false;
-    if (volumes.size > 0) {
-      auto& medium   = volumes.items[volumes.size - 1];
-      auto  distance = sample_transmittance(
-           medium.density, isec.distance, next1f(sampler), next1f(sampler));
+    if (path.volumes.size > 0) {
+      auto& medium = path.volumes.items[path.volumes.size - 1];
+      auto  rd     = next1f(sampler);
+      auto  rc     = next1f(sampler);
+      auto  distance =
+          sample_transmittance(medium.density, isec.distance, rd, rc);
       auto pdf =
           sample_transmittance_pdf(medium.density, distance, isec.distance);
       if (pdf <= 0) break;
-      weight *= eval_transmittance(medium.density, distance) / pdf;
+      path.weight *= eval_transmittance(medium.density, distance) / pdf;
       in_volume     = distance < isec.distance;
       isec.distance = distance;
     }
 
     if (in_volume) {
-      // Scattering in the medium (one-sample mixture of phase and lights).
-      auto& medium   = volumes.items[volumes.size - 1];
-      auto  position = ray_point(ray, isec.distance);
-      auto  outgoing = -ray.d;
-      auto  incoming = vec3f{0, 0, 0};
-      if (!use_lights || next1f(sampler) < 0.5f) {
-        incoming = sample_scattering(
-            medium, outgoing, next1f(sampler), next2f(sampler));
-      } else {
-        incoming = sample_lights(scene, accel, lights, position,
-            next1f(sampler), next1f(sampler), next2f(sampler));
-      }
-      if (incoming == vec3f{0, 0, 0}) break;
-      auto pdf = sample_scattering_pdf(medium, outgoing, incoming);
-      if (use_lights)
-        pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(
-                                      scene, accel, lights, position, incoming);
-      if (pdf <= 0) break;
-      weight *= eval_scattering(medium, outgoing, incoming) / pdf;
-      bsdf_pdf = 0;
-      ray      = {position, incoming, 0, flt_max};
+      auto position = ray_point(path.ray, isec.distance);
+      if (!shade_medium(
+              scene, accel, lights, use_lights, path, position, sampler))
+        break;
     } else {
-      auto  point    = eval_surface(scene, accel, ray, isec);
-      auto  outgoing = -ray.d;
+      auto  point    = eval_surface(scene, accel, path.ray, isec);
+      auto  outgoing = -path.ray.d;
       auto& material = point.material;
 
       // Opacity: continue straight through (bounded, as Yocto does).
-      if (material.opacity < 1 && next1f(sampler) >= material.opacity) {
-        if (opacity_skips++ > 128) break;
-        ray = spawn_ray(accel, point, ray.d);
-        bounce--;
-        continue;
+      if (material.opacity < 1) {
+        auto ro = next1f(sampler);
+        if (ro >= material.opacity) {
+          if (path.opacity_skips++ > max_opacity_skips) break;
+          path.ray = spawn_ray(accel, point, path.ray.d);
+          continue;
+        }
       }
-      if (bounce == 0) hit = true;
+      if (bounce == 0) path.hit = true;
 
-      radiance += weight * eval_emission(material, point.normal, outgoing) *
-                  emission_weight(ray.d);
+      path.radiance += path.weight *
+                       eval_emission(material, point.normal, outgoing) *
+                       emission_weight(scene, accel, lights, path, path.ray.d);
 
       auto incoming = vec3f{0, 0, 0};
       if (is_delta(material)) {
-        incoming =
-            sample_delta(material, point.normal, outgoing, next1f(sampler));
-        if (incoming == vec3f{0, 0, 0}) break;
-        auto pdf = sample_delta_pdf(material, point.normal, outgoing, incoming);
-        if (pdf <= 0) break;
-        weight *= eval_delta(material, point.normal, outgoing, incoming) / pdf;
-        // A volumetric boundary only lets the path through, and light
-        // samples see through it too (eval_unscattered): emission found
-        // beyond it keeps the MIS weight of the sample that led here.
-        if (material.type != material_type::volumetric) bsdf_pdf = 0;
-      } else if (two_sample && volumes.size == 0) {
-        // Light sample, traced to whatever emits along it.
-        auto light = sample_lights(scene, accel, lights, point.position,
-            next1f(sampler), next1f(sampler), next2f(sampler));
-        if (light != vec3f{0, 0, 0}) {
-          auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
-          auto lpdf =
-              sample_lights_pdf(scene, accel, lights, point.position, light);
-          if (bsdfcos != vec3f{0, 0, 0} && lpdf > 0) {
-            auto bpdf =
-                sample_bsdfcos_pdf(material, point.normal, outgoing, light);
-            auto le = eval_unscattered(
-                scene, accel, spawn_ray(accel, point, light), evaluations);
-            radiance +=
-                weight * bsdfcos * le * (power_heuristic(lpdf, bpdf) / lpdf);
-          }
-        }
-        // BSDF sample, which also continues the path.
-        incoming = sample_bsdfcos(
-            material, point.normal, outgoing, next1f(sampler), next2f(sampler));
-        if (incoming == vec3f{0, 0, 0}) break;
-        auto pdf =
-            sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
-        if (pdf <= 0) break;
-        weight *=
-            eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
-        bsdf_pdf = pdf;
-        from     = point.position;
+        incoming = shade_delta(path, point, sampler);
+      } else if (two_sample && path.volumes.size == 0) {
+        incoming = shade_two_sample(
+            scene, accel, lights, path, point, sampler, evaluations);
       } else {
-        if (!use_lights || next1f(sampler) < 0.5f) {
-          incoming = sample_bsdfcos(material, point.normal, outgoing,
-              next1f(sampler), next2f(sampler));
-        } else {
-          incoming = sample_lights(scene, accel, lights, point.position,
-              next1f(sampler), next1f(sampler), next2f(sampler));
-        }
-        if (incoming == vec3f{0, 0, 0}) break;
-        auto pdf =
-            sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
-        if (use_lights)
-          pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(scene, accel, lights,
-                                        point.position, incoming);
-        if (pdf <= 0) break;
-        weight *=
-            eval_bsdfcos(material, point.normal, outgoing, incoming) / pdf;
-        bsdf_pdf = 0;
+        incoming = shade_one_sample(
+            scene, accel, lights, use_lights, path, point, sampler);
       }
-
-      // Crossing the boundary of a closed medium enters or leaves it.
-      if (is_volumetric(material) &&
-          dot(point.normal, outgoing) * dot(point.normal, incoming) < 0) {
-        if (dot(point.normal, incoming) < 0) {
-          if (volumes.size < (int)volumes.items.size())
-            volumes.items[volumes.size++] = material;
-        } else if (volumes.size > 0) {
-          volumes.size--;
-        }
-      }
-      ray = spawn_ray(accel, point, incoming);
+      if (incoming == vec3f{0, 0, 0}) break;
+      update_volumes(path, point, outgoing, incoming);
+      path.ray = spawn_ray(accel, point, incoming);
     }
-    if (max(weight) <= 0 || !isfinite(weight)) break;
+    if (max(path.weight) <= 0 || !isfinite(path.weight)) break;
 
     // Russian roulette after a few bounces.
-    if (bounce > 3) {
-      auto survive = std::min(0.99f, max(weight));
-      if (next1f(sampler) >= survive) break;
-      weight /= survive;
+    if (bounce > roulette_min_bounce) {
+      auto survive = std::min(roulette_max_survive, max(path.weight));
+      auto rr      = next1f(sampler);
+      if (rr >= survive) break;
+      path.weight /= survive;
     }
+    bounce++;
   }
-  return {radiance.x, radiance.y, radiance.z, hit ? 1.0f : 0.0f};
+  auto& radiance = path.radiance;
+  return {radiance.x, radiance.y, radiance.z, path.hit ? 1.0f : 0.0f};
 }
 
 // Colour ramp for the steps heat map: blue (few) -> red (many), log scale.
@@ -397,20 +497,27 @@ bool is_lit_shader(shader_type shader) {
 // -----------------------------------------------------------------------------
 
 trace_state make_state(const scene_data& scene, const trace_params& params) {
-  auto  state  = trace_state{};
-  auto& camera = scene.cameras.at(params.camera);
-  auto  size   = camera_resolution(camera, params.resolution);
+  return make_state(scene.cameras.at(params.camera), params);
+}
+
+trace_state make_state(const camera_data& camera, const trace_params& params) {
+  auto state   = trace_state{};
+  state.params = params;
+  state.camera = camera;
+  auto size    = camera_resolution(camera, params.resolution);
   state.width  = size.x;
   state.height = size.y;
   auto count   = (size_t)state.width * state.height;
   state.accumulated.assign(count, {0, 0, 0, 0});
   state.evaluations.assign(count, 0);
   state.rngs.resize(count);
-  // One stream per pixel, seeded in pixel order: independent of threads.
-  auto master = make_rng(1301081);
-  for (auto& rng : state.rngs)
-    rng = make_rng(params.seed, (uint64_t)(rand1i(master, 1 << 30) + 1));
+  for (size_t idx = 0; idx < count; idx++)
+    state.rngs[idx] = make_pixel_rng(params.seed, idx);
   return state;
+}
+
+rng_state make_pixel_rng(uint64_t seed, size_t index) {
+  return make_rng(seed, (uint64_t)index);
 }
 
 // Offset inside a pixel for a tent filter of width 2 pixels (Yocto/GL).
@@ -418,11 +525,12 @@ static float tent_offset(float r) {
   return r < 0.5f ? std::sqrt(2 * r) - 1 : 1 - std::sqrt(2 - 2 * r);
 }
 
-vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, const trace_params& params, int i, int j,
-    int width, int height, int sample, rng_state& rng, int64_t& evaluations) {
-  auto& camera  = scene.cameras[params.camera];
-  auto  sampler = path_sampler{params.sampler, {}, &rng};
+// Sample `sample` of pixel (i, j).
+static vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const camera_data& camera,
+    const trace_params& params, int i, int j, int width, int height, int sample,
+    rng_state& rng, int64_t& evaluations) {
+  auto sampler = path_sampler{params.sampler, {}, &rng};
   if (params.sampler == sampler_type::sobol) {
     auto seed =
         hash_uint32((uint32_t)params.seed ^ (uint32_t)(params.seed >> 32));
@@ -452,15 +560,28 @@ vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
   return {rgb.x, rgb.y, rgb.z, alpha};
 }
 
+void trace_pixel_samples(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const camera_data& camera,
+    const trace_params& params, int i, int j, int width, int height, int first,
+    int count, vec4f& accumulated, rng_state& rng, int64_t& evaluations) {
+  for (auto sample = first; sample < first + count; sample++)
+    accumulated += trace_pixel(scene, accel, lights, camera, params, i, j,
+        width, height, sample, rng, evaluations);
+}
+
+vec4f average_samples(vec4f accumulated, int samples) {
+  return samples > 0 ? accumulated * (1.0f / samples) : vec4f{0, 0, 0, 0};
+}
+
 void trace_tile(trace_state& state, const scene_data& scene,
     const accel_data& accel, const lights_data& lights,
     const trace_params& params, int i0, int i1, int j0, int j1) {
   for (auto j = j0; j < j1; j++) {
     for (auto i = i0; i < i1; i++) {
       auto idx = (size_t)j * state.width + i;
-      state.accumulated[idx] += trace_pixel(scene, accel, lights, params, i, j,
-          state.width, state.height, state.samples, state.rngs[idx],
-          state.evaluations[idx]);
+      trace_pixel_samples(scene, accel, lights, state.camera, params, i, j,
+          state.width, state.height, state.samples, 1, state.accumulated[idx],
+          state.rngs[idx], state.evaluations[idx]);
     }
   }
 }
@@ -475,9 +596,8 @@ void trace_samples(trace_state& state, const scene_data& scene,
 image_data get_render(const trace_state& state) {
   auto image = make_image(state.width, state.height);
   if (state.samples == 0) return image;
-  auto scale = 1.0f / state.samples;
   for (size_t idx = 0; idx < image.pixels.size(); idx++)
-    image.pixels[idx] = state.accumulated[idx] * scale;
+    image.pixels[idx] = average_samples(state.accumulated[idx], state.samples);
   return image;
 }
 

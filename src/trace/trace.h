@@ -61,14 +61,18 @@ struct trace_params {
   accel_type   accel        = accel_type::bvh;
   march_params march        = {};
   int          pratio       = 8;  // viewer preview downscale
+  float        exposure     = 0;  // output tone mapping, in stops (LDR)
+  bool         filmic       = false;
 };
 
 // -----------------------------------------------------------------------------
 // STATE
 // -----------------------------------------------------------------------------
 
-// Accumulated samples and per-pixel random streams.
+// Accumulated samples and per-pixel random streams, for one camera.
 struct trace_state {
+  trace_params           params      = {};
+  camera_data            camera      = {};
   int                    width       = 0;
   int                    height      = 0;
   int                    samples     = 0;
@@ -79,6 +83,11 @@ struct trace_state {
 
 // Size the state for the camera and resolution and seed the generators.
 trace_state make_state(const scene_data& scene, const trace_params& params);
+trace_state make_state(const camera_data& camera, const trace_params& params);
+
+// The random stream of pixel `index` (row-major): the stream id is the index,
+// so no two pixels of any image share a stream.
+rng_state make_pixel_rng(uint64_t seed, size_t index);
 
 // Add one sample to the pixels of columns [i0, i1) and rows [j0, j1).
 void trace_tile(trace_state& state, const scene_data& scene,
@@ -121,11 +130,17 @@ image_data get_render(const trace_state& state);
 // passes (for tests, benchmarks and programs that need no progress).
 image_data trace_image(const scene_data& scene, const trace_params& params);
 
-// Sample `sample` of pixel (i, j); `rng` is the pixel's stream for the
-// random sampler. Exposed for tests and the viewer's preview.
-vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, const trace_params& params, int i, int j,
-    int width, int height, int sample, rng_state& rng, int64_t& evaluations);
+// Add samples [first, first + count) of pixel (i, j), in sample order, to
+// `accumulated`; `rng` is the pixel's stream for the random sampler. The one
+// pixel loop of every render path (so they agree to the byte).
+void trace_pixel_samples(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const camera_data& camera,
+    const trace_params& params, int i, int j, int width, int height, int first,
+    int count, vec4f& accumulated, rng_state& rng, int64_t& evaluations);
+
+// The average of `samples` summed samples (sum * (1 / samples)): the one
+// division of every render path.
+vec4f average_samples(vec4f accumulated, int samples);
 
 // Whether the shader needs lights (and falls back to eyelight without).
 bool is_lit_shader(shader_type shader);

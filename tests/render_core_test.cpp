@@ -1,0 +1,236 @@
+// Tests of the render core (trace/render.h): tiles rendered in any order and
+// size, by any number of threads, give the whole image to the byte; the one
+// parameter validation; the fallback policies; progress and cancel.
+
+#include <doctest/doctest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <string>
+
+#include "scene/scene_io.h"
+#include "test_commands.h"
+#include "trace/render.h"
+#include "util/error.h"
+
+using namespace implicit;
+
+namespace {
+
+std::unique_ptr<const render_context> example_context(trace_params& params,
+    const std::string& name = "sdfunction/sdfunction.json") {
+  auto context = make_render_context(
+      load_scene(implicit_test::example_scene(name)), params);
+  auto warnings = std::vector<std::string>{};
+  params        = resolve_params(*context, params, "", warnings);
+  return context;
+}
+
+bool same_bytes(const image_data& a, const image_data& b) {
+  return a.width == b.width && a.height == b.height &&
+         std::memcmp(a.pixels.data(), b.pixels.data(),
+             a.pixels.size() * sizeof(vec4f)) == 0;
+}
+
+// The image assembled from tiles of random sizes, rendered in random order,
+// each as an MPI rank would: render_tile() then the shared averaging.
+image_data render_by_tiles(
+    const render_context& context, const trace_params& params, uint32_t seed) {
+  auto size = render_size(context, params);
+  auto rng  = std::mt19937{seed};
+  auto cut  = [&](int extent) {
+    auto cuts = std::vector<int>{0};
+    while (cuts.back() < extent)
+      cuts.push_back(std::min(extent, cuts.back() + 1 + (int)(rng() % 13)));
+    return cuts;
+  };
+  auto xs = cut(size.x), ys = cut(size.y);
+  auto tiles = std::vector<render_tile_rect>{};
+  for (size_t j = 0; j + 1 < ys.size(); j++)
+    for (size_t i = 0; i + 1 < xs.size(); i++)
+      tiles.push_back({xs[i], xs[i + 1], ys[j], ys[j + 1]});
+  std::shuffle(tiles.begin(), tiles.end(), rng);
+  auto accumulated = std::vector<vec4f>((size_t)size.x * size.y);
+  auto sums        = std::vector<vec4f>{};
+  for (auto& tile : tiles) {
+    render_tile(context, params, tile, sums);
+    auto width = tile.x1 - tile.x0;
+    for (auto j = tile.y0; j < tile.y1; j++)
+      for (auto i = tile.x0; i < tile.x1; i++)
+        accumulated[(size_t)j * size.x + i] =
+            sums[(size_t)(j - tile.y0) * width + (i - tile.x0)];
+  }
+  return average_samples(accumulated, size.x, size.y, params.samples);
+}
+
+}  // namespace
+
+TEST_CASE("render core: tiles in any order and size give the whole image") {
+  for (auto sampler : {sampler_type::sobol, sampler_type::random}) {
+    for (auto name :
+        {"sdfunction/sdfunction.json", "materials/materials.json"}) {
+      INFO(name, " sampler ", sampler_type_names[(int)sampler]);
+      auto params       = trace_params{};
+      params.resolution = 40;
+      params.samples    = 3;
+      params.sampler    = sampler;
+      auto context      = example_context(params, name);
+
+      auto whole = image_data{};
+      REQUIRE(render_image(*context, params, whole));
+      CHECK(same_bytes(whole, render_by_tiles(*context, params, 1)));
+      CHECK(same_bytes(whole, render_by_tiles(*context, params, 2)));
+
+      // Progressive: one sample per step, or all at once.
+      auto state = make_render_state(*context, params);
+      for (auto s = 0; s < params.samples; s++)
+        CHECK(render_step(*context, state));
+      CHECK(same_bytes(whole, get_image(state)));
+      auto batch = make_render_state(*context, params);
+      CHECK(render_step(*context, batch, params.samples));
+      CHECK(same_bytes(whole, get_image(batch)));
+
+      // One thread and two threads.
+      for (auto threads : {1, 2}) {
+        auto control = tbb::global_control{
+            tbb::global_control::max_allowed_parallelism, (size_t)threads};
+        auto image = image_data{};
+        REQUIRE(render_image(*context, params, image));
+        CHECK(same_bytes(whole, image));
+      }
+    }
+  }
+}
+
+TEST_CASE("render core: pixel streams never collide") {
+  // Stream ids are the pixel indices: distinct streams give distinct
+  // sequences even for pixels 2^30 apart (the old ids repeated there).
+  auto a = make_pixel_rng(7, 5), b = make_pixel_rng(7, 5 + (1ull << 30));
+  CHECK(rand1f(a) != rand1f(b));
+  auto c = make_pixel_rng(7, 5);
+  auto d = make_pixel_rng(7, 5);
+  CHECK(rand1f(c) == rand1f(d));
+}
+
+TEST_CASE("render core: one validation refuses bad parameters") {
+  auto nan = std::numeric_limits<float>::quiet_NaN();
+  auto inf = std::numeric_limits<float>::infinity();
+  auto bad = [](auto change, const char* name) {
+    auto params = trace_params{};
+    change(params);
+    auto message = std::string{};
+    try {
+      validate_params(params);
+    } catch (const io_error& error) { message = error.what(); }
+    INFO(name, ": ", message);
+    CHECK(message.find(name) != std::string::npos);
+  };
+  bad([&](trace_params& p) { p.clamp = nan; }, "clamp");
+  bad([&](trace_params& p) { p.clamp = inf; }, "clamp");
+  bad([&](trace_params& p) { p.clamp = -1; }, "clamp");
+  bad([&](trace_params& p) { p.exposure = inf; }, "exposure");
+  bad([&](trace_params& p) { p.exposure = nan; }, "exposure");
+  bad([&](trace_params& p) { p.resolution = 0; }, "resolution");
+  bad([&](trace_params& p) { p.samples = 0; }, "samples");
+  bad([&](trace_params& p) { p.bounces = 0; }, "bounces");
+  bad([&](trace_params& p) { p.march.max_iterations = 0; }, "stmaxiter");
+  bad([&](trace_params& p) { p.march.overrelax = nan; }, "overrelax");
+  CHECK_NOTHROW(validate_params(trace_params{}));
+
+  // Every entry point validates.
+  auto params       = trace_params{};
+  params.resolution = 16;
+  auto context      = example_context(params);
+  params.clamp      = nan;
+  auto image        = image_data{};
+  CHECK_THROWS_AS(render_image(*context, params, image), io_error);
+  CHECK_THROWS_AS(make_render_state(*context, params), io_error);
+  auto sums = std::vector<vec4f>{};
+  CHECK_THROWS_AS(render_tile(*context, params, {0, 1, 0, 1}, sums), io_error);
+  params.clamp = 10;
+  CHECK_THROWS_AS(
+      render_tile(*context, params, {0, 100, 0, 1}, sums), io_error);
+}
+
+TEST_CASE("render core: fallbacks for cameras and lights") {
+  auto dir  = implicit_test::test_dir("render_core_fallbacks");
+  auto path = (dir / "dark.json").string();
+  std::ofstream(path) << R"({
+    "asset": {"version": "4.2"},
+    "materials": [{"name": "white", "color": [0.8, 0.8, 0.8]}],
+    "sdfunctions": [{"name": "ball", "type": "sphere", "radius": 1, "material": 0,
+                     "frame": [1,0,0, 0,1,0, 0,0,1, 0,0,0]}]
+  })";
+  auto params       = trace_params{};
+  params.resolution = 24;
+  params.samples    = 1;
+  auto context      = make_render_context(load_scene(path), params);
+  // A camera framing the scene was added.
+  REQUIRE(context->scene.cameras.size() == 1);
+  auto warnings = std::vector<std::string>{};
+  auto resolved = resolve_params(*context, params, "", warnings);
+  CHECK(resolved.shader == shader_type::eyelight);
+  REQUIRE(warnings.size() == 1);
+  CHECK(warnings[0].find("no lights") != std::string::npos);
+  auto image = image_data{};
+  REQUIRE(render_image(*context, resolved, image));
+  CHECK(pixel(image, image.width / 2, image.height / 2).x > 0.3f);  // eye light
+  // Debug shaders need no lights: no warning.
+  params.shader = shader_type::normal;
+  warnings.clear();
+  CHECK(resolve_params(*context, params, "", warnings).shader ==
+        shader_type::normal);
+  CHECK(warnings.empty());
+  // An unknown camera name is an error.
+  CHECK_THROWS_AS(resolve_params(*context, params, "nope", warnings), io_error);
+}
+
+namespace {
+
+struct progress_record {
+  int64_t done = 0, total = 0, calls = 0, cancel_after = -1;
+};
+
+void on_progress(void* user, int64_t done, int64_t total) {
+  auto& record = *(progress_record*)user;
+  record.done  = done;
+  record.total = total;
+  record.calls++;
+}
+
+bool on_cancel(void* user) {
+  auto& record = *(progress_record*)user;
+  return record.cancel_after >= 0 && record.calls >= record.cancel_after;
+}
+
+}  // namespace
+
+TEST_CASE("render core: progress per tile and cancel between tiles") {
+  auto params       = trace_params{};
+  params.resolution = 64;
+  params.samples    = 1;
+  params.shader     = shader_type::normal;
+  auto context      = example_context(params);
+  auto record       = progress_record{};
+  auto callbacks    = render_callbacks{on_progress, on_cancel, &record};
+  auto image        = image_data{};
+  REQUIRE(render_image(*context, params, image, callbacks));
+  auto size = render_size(*context, params);
+  CHECK(record.total == (int64_t)size.x * size.y);
+  CHECK(record.done == record.total);
+  CHECK(record.calls > 1);
+
+  record              = {};
+  record.cancel_after = 0;
+  auto untouched      = image_data{};
+  CHECK_FALSE(render_image(*context, params, untouched, callbacks));
+  CHECK(untouched.pixels.empty());
+  auto state = make_render_state(*context, params);
+  CHECK_FALSE(render_step(*context, state, 1, callbacks));
+  CHECK(state.samples == 0);
+}
