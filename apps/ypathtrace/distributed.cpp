@@ -3,9 +3,10 @@
 // Rank 0 runs a scheduler of work items (frame, tile, sample batch). Its main
 // thread is the only one that calls MPI (MPI_THREAD_FUNNELED): it answers the
 // other ranks while a second thread renders items on rank 0 with all cores.
-// An item carries the tile's accumulated sums and per-pixel random streams
-// both ways, so a tile's next batch may run on any rank and still continue
-// each pixel's sum and stream exactly where the single process would.
+// A tile's first sample batch starts from zero sums and the pixels' own
+// random streams; a later batch (--savebatch) carries the tile's sums and
+// streams both ways, so it may run on any rank and still continue each
+// pixel's sum and stream exactly where the single process would.
 
 #include "distributed.h"
 
@@ -91,19 +92,22 @@ camera_data turntable_camera(const camera_data& camera, int frame, int frames) {
   return result;
 }
 
-std::string frame_filename(const std::string& output, int frame) {
+// out.png -> out<tag>0016.png: a number of at least 4 digits before the
+// extension (the validated output always has one).
+static std::string numbered_filename(
+    const std::string& output, const std::string& tag, int number) {
   auto dot    = output.find_last_of('.');
-  auto number = std::to_string(frame);
-  while (number.size() < 4) number = "0" + number;
-  return output.substr(0, dot) + "-" + number + output.substr(dot);
+  auto digits = std::to_string(number);
+  while (digits.size() < 4) digits = "0" + digits;
+  return output.substr(0, dot) + tag + digits + output.substr(dot);
 }
 
-// Name of a batch image: out.png -> out-s0016.png (as the single process).
-static std::string batch_filename(const std::string& output, int samples) {
-  auto dot    = output.find_last_of('.');
-  auto number = std::to_string(samples);
-  while (number.size() < 4) number = "0" + number;
-  return output.substr(0, dot) + "-s" + number + output.substr(dot);
+std::string frame_filename(const std::string& output, int frame) {
+  return numbered_filename(output, "-", frame);
+}
+
+std::string batch_filename(const std::string& output, int samples) {
+  return numbered_filename(output, "-s", samples);
 }
 
 // -----------------------------------------------------------------------------

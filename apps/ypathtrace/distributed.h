@@ -58,4 +58,7 @@ camera_data turntable_camera(const camera_data& camera, int frame, int frames);
 // Output name of a sequence frame: out.png -> out-0003.png.
 std::string frame_filename(const std::string& output, int frame);
 
+// Name of a batch image (--savebatch): out.png -> out-s0016.png.
+std::string batch_filename(const std::string& output, int samples);
+
 }  // namespace implicit

@@ -178,14 +178,6 @@ static void validate_options(app_options& opts) {
   }
 }
 
-// Name of a batch image: out.png -> out-s0016.png.
-static std::string batch_filename(const std::string& output, int samples) {
-  auto dot    = output.find_last_of('.');
-  auto number = std::to_string(samples);
-  while (number.size() < 4) number = "0" + number;
-  return output.substr(0, dot) + "-s" + number + output.substr(dot);
-}
-
 // -----------------------------------------------------------------------------
 // RENDER
 // -----------------------------------------------------------------------------
