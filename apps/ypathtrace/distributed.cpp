@@ -479,9 +479,16 @@ static tile_work unpack_work(const std::string& bytes) {
   return work;
 }
 
-// Polling interval: blocking MPI calls spin a core that rendering needs.
-static void pause_briefly() {
-  std::this_thread::sleep_for(std::chrono::microseconds(200));
+// Waiting between polls: blocking MPI calls spin a core that rendering
+// needs. The pause doubles from 50 us to 1 ms while nothing arrives (a
+// tile takes far longer), and starts again after a message.
+struct poll_backoff {
+  std::chrono::microseconds pause = std::chrono::microseconds(50);
+};
+
+static void pause_briefly(poll_backoff& backoff) {
+  std::this_thread::sleep_for(backoff.pause);
+  backoff.pause = std::min(backoff.pause * 2, std::chrono::microseconds(1000));
 }
 
 static mpi_session start_mpi() {
@@ -535,12 +542,13 @@ static std::string receive_bytes(const MPI_Status& status) {
 
 // Wait for a message from `source` without spinning a core.
 static MPI_Status wait_message(int source) {
-  auto status = MPI_Status{};
-  auto flag   = 0;
+  auto status  = MPI_Status{};
+  auto flag    = 0;
+  auto backoff = poll_backoff{};
   while (true) {
     MPI_Iprobe(source, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &status);
     if (flag) return status;
-    pause_briefly();
+    pause_briefly(backoff);
   }
 }
 
@@ -548,6 +556,7 @@ static MPI_Status wait_message(int source) {
 // the render thread works through the same queue.
 static void serve_ranks(scheduler& sched, int ranks) {
   auto idle     = std::deque<int>{};
+  auto backoff  = poll_backoff{};
   auto released = 1;  // rank 0 itself
   auto renderer = std::thread([&] {
     try {
@@ -598,7 +607,11 @@ static void serve_ranks(scheduler& sched, int ranks) {
         abort_job();
       }
     }
-    if (!flag) pause_briefly();
+    if (flag) {
+      backoff = {};
+    } else {
+      pause_briefly(backoff);
+    }
   }
   renderer.join();
   if (!sched.error.empty()) {
