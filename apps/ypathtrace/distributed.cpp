@@ -439,16 +439,21 @@ enum message_tag : int { tag_ready = 1, tag_result, tag_work, tag_done };
 // and the streams follow), then the sums and the streams.
 static constexpr int work_header_size = 11;
 
+// Append an array's bytes (an empty vector's data() may be null).
+template <typename T>
+static void pack_array(std::string& bytes, const std::vector<T>& values) {
+  if (values.empty()) return;
+  bytes.append((const char*)values.data(), values.size() * sizeof(T));
+}
+
 static std::string pack_work(const tile_work& work) {
   int  header[work_header_size] = {work.frame, work.tile, work.batch,
        work.rect.x0, work.rect.x1, work.rect.y0, work.rect.y1, work.s0, work.s1,
        !work.accumulated.empty(), !work.rngs.empty()};
   auto bytes                    = std::string{};
   bytes.append((const char*)header, sizeof(header));
-  bytes.append((const char*)work.accumulated.data(),
-      work.accumulated.size() * sizeof(vec4f));
-  bytes.append(
-      (const char*)work.rngs.data(), work.rngs.size() * sizeof(rng_state));
+  pack_array(bytes, work.accumulated);
+  pack_array(bytes, work.rngs);
   return bytes;
 }
 
@@ -459,6 +464,7 @@ static void unpack_array(const std::string& bytes, size_t& offset, size_t count,
   if (bytes.size() - offset < count * sizeof(T))
     throw io_error("work item: truncated");
   values.resize(count);
+  if (count == 0) return;  // an empty vector's data() may be null
   std::memcpy(values.data(), bytes.data() + offset, count * sizeof(T));
   offset += count * sizeof(T);
 }
