@@ -9,6 +9,7 @@ packages=(
   libembree-dev libopenvdb-dev libnanovdb-dev libboost-iostreams-dev libcli11-dev
   libglfw3-dev libimgui-dev libgl-dev libgl1-mesa-dri libglx-mesa0 xvfb xauth
   doctest-dev libbenchmark-dev libopenmpi-dev openmpi-bin
+  pybind11-dev python3-dev python3-numpy python3-pytest
 )
 
 sudo=""

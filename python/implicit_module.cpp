@@ -1,0 +1,736 @@
+// # implicit: the Python extension `_implicit`
+//
+// The compiled half of the Python package `implicit` (python/implicit/ holds
+// the other half: expressions and scene building in pure Python, which write
+// the project's JSON scene format). This file only converts: JSON text in,
+// scenes, SDF programs, images and meshes out, through the same library
+// functions as ypathtrace and ysdf, so Python and the command line see the
+// same scenes and compute the same images. Library errors (io_error) become
+// `implicit.Error`; bad Python arguments become ValueError or TypeError.
+//
+// Rendering is the library's render core (trace/render.h): the render
+// context, its fallbacks and its parameter checks are the ones ypathtrace
+// uses; this file only converts options and drives it. Long calls (loading,
+// rendering, baking, evaluating many points) release the GIL. Rendering runs
+// on a worker thread while the calling thread wakes every few milliseconds,
+// takes the GIL back and delivers Ctrl-C and the progress callback; a pending
+// exception cancels the render before its next tile.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <atomic>
+#include <chrono>
+#include <climits>
+#include <cmath>
+#include <condition_variable>
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "image/image_io.h"
+#include "scene/scene_io.h"
+#include "sdf/sdf_grid.h"
+#include "sdf/sdf_grid_io.h"
+#include "sdf/sdf_mesh.h"
+#include "sdf/sdf_mesh_io.h"
+#include "sdf/sdf_program.h"
+#include "trace/render.h"
+#include "util/error.h"
+
+namespace py = pybind11;
+using namespace implicit;
+
+namespace {
+
+static_assert(sizeof(vec4f) == 4 * sizeof(float), "vec4f must be 4 floats");
+static_assert(sizeof(vec3f) == 3 * sizeof(float), "vec3f must be 3 floats");
+static_assert(sizeof(vec3i) == 3 * sizeof(int), "vec3i must be 3 ints");
+
+// -----------------------------------------------------------------------------
+// CONVERSIONS
+// -----------------------------------------------------------------------------
+
+// "(2, 3)" for an array's shape, in messages.
+std::string shape_text(const py::array& array) {
+  auto text = std::string{"("};
+  for (auto i = 0; i < (int)array.ndim(); i++)
+    text += (i ? ", " : "") + std::to_string(array.shape(i));
+  return text + (array.ndim() == 1 ? ",)" : ")");
+}
+
+// An image as a float32 (height, width, 4) array (a copy).
+py::array_t<float> image_to_array(const image_data& image) {
+  auto array = py::array_t<float>(
+      {(py::ssize_t)image.height, (py::ssize_t)image.width, (py::ssize_t)4});
+  if (!image.pixels.empty())
+    std::memcpy(array.mutable_data(), image.pixels.data(),
+        image.pixels.size() * sizeof(vec4f));
+  return array;
+}
+
+// A (height, width, 4) or (height, width, 3) array as an image; three
+// channels get alpha 1.
+image_data array_to_image(const py::array& input) {
+  auto array =
+      py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(
+          input);
+  if (!array || array.ndim() != 3 || array.shape(0) < 1 || array.shape(1) < 1 ||
+      (array.shape(2) != 3 && array.shape(2) != 4))
+    throw py::value_error(
+        "expected an image array of shape (height, width, 4) or (height, "
+        "width, 3), found " +
+        (array ? shape_text(array) : std::string{"a non-numeric value"}));
+  auto image    = make_image((int)array.shape(1), (int)array.shape(0));
+  auto channels = (int)array.shape(2);
+  auto data     = array.data();
+  for (size_t idx = 0; idx < image.pixels.size(); idx++) {
+    auto p            = data + idx * channels;
+    image.pixels[idx] = {p[0], p[1], p[2], channels == 4 ? p[3] : 1.0f};
+  }
+  return image;
+}
+
+// -----------------------------------------------------------------------------
+// SCENES
+// -----------------------------------------------------------------------------
+
+// A loaded scene, as its render context (built once for the default
+// accelerator settings; renders share it, it never changes).
+struct py_scene {
+  std::shared_ptr<const render_context> context  = {};
+  trace_params                          built    = {};  // its accel settings
+  std::string                           filename = "";
+  std::vector<std::string>              warnings = {};
+};
+
+// Issue each message as a Python UserWarning.
+void warn_all(const std::vector<std::string>& messages) {
+  for (auto& message : messages)
+    if (PyErr_WarnEx(PyExc_UserWarning, message.c_str(), 1) != 0)
+      throw py::error_already_set();
+}
+
+// Load (or parse) a scene and make its render context, without the GIL.
+template <typename Load>
+std::shared_ptr<py_scene> make_py_scene(
+    const std::string& filename, const Load& load) {
+  auto scene      = std::make_shared<py_scene>();
+  scene->filename = filename;
+  {
+    py::gil_scoped_release release;
+    scene->context = make_render_context(load(scene->warnings), scene->built);
+  }
+  warn_all(scene->warnings);
+  return scene;
+}
+
+std::shared_ptr<py_scene> load_scene_file(const std::string& filename) {
+  return make_py_scene(filename, [&](std::vector<std::string>& warnings) {
+    return load_scene(filename, warnings);
+  });
+}
+
+std::shared_ptr<py_scene> parse_scene_text(
+    const std::string& text, const std::string& filename) {
+  return make_py_scene(filename, [&](std::vector<std::string>& warnings) {
+    return parse_scene(text, filename, warnings, true);
+  });
+}
+
+// The context to render `params` with: the scene's own, or, when the
+// options change what the context builds (the accelerator and the march
+// cap, the only accel settings Python sets), one made from a copy of the
+// scene.
+std::shared_ptr<const render_context> context_for(
+    const py_scene& scene, const trace_params& params) {
+  if (params.accel == scene.built.accel &&
+      params.march.max_iterations == scene.built.march.max_iterations)
+    return scene.context;
+  py::gil_scoped_release release;
+  auto                   copy = scene.context->scene;
+  return make_render_context(std::move(copy), params);
+}
+
+// -----------------------------------------------------------------------------
+// RENDER OPTIONS
+// -----------------------------------------------------------------------------
+
+// What a render call asks for: the CLI's options, under the CLI's names.
+struct render_options {
+  trace_params params  = {};
+  std::string  camera  = "";
+  int          threads = 0;
+};
+
+// The option names, for messages and the Python layer's documentation.
+const std::vector<std::string> render_option_names = {"shader", "camera",
+    "resolution", "samples", "bounces", "clamp", "seed", "envhidden",
+    "tentfilter", "noimplicitmis", "mis", "sampler", "stmaxiter", "accel",
+    "threads"};
+
+std::string join_names(const std::vector<std::string>& names) {
+  auto text = std::string{};
+  for (auto& name : names) text += (text.empty() ? "" : ", ") + name;
+  return text;
+}
+
+// An integer option in [lo, hi]: the C int range for values the library
+// checks, the CLI's range for front-end options (threads).
+int read_int_option(
+    const std::string& key, const py::handle& value, int lo, int hi) {
+  if (py::isinstance<py::bool_>(value) || !py::isinstance<py::int_>(value))
+    throw py::type_error(
+        key + ": expected an integer, found " +
+        std::string{py::str(value.get_type().attr("__name__"))});
+  auto number = py::reinterpret_borrow<py::int_>(value);
+  if (number < py::int_(lo) || number > py::int_(hi))
+    throw py::value_error(key + ": must be in [" + std::to_string(lo) + ", " +
+                          std::to_string(hi) + "], found " +
+                          std::string{py::str(number)});
+  return number.cast<int>();
+}
+
+// An option the library checks: any C int.
+int read_int_option(const std::string& key, const py::handle& value) {
+  return read_int_option(key, value, INT_MIN, INT_MAX);
+}
+
+std::string read_string_option(const std::string& key, py::handle value) {
+  if (!py::isinstance<py::str>(value))
+    throw py::type_error(key + ": expected a string");
+  return value.cast<std::string>();
+}
+
+bool read_bool_option(const std::string& key, py::handle value) {
+  if (!py::isinstance<py::bool_>(value))
+    throw py::type_error(key + ": expected True or False");
+  return value.cast<bool>();
+}
+
+// A name from a names table, as the CLI's parse_enum.
+template <typename T>
+T read_enum_option(const std::string& key, py::handle value,
+    const std::vector<std::string>& names) {
+  auto name = read_string_option(key, value);
+  for (auto i = 0; i < (int)names.size(); i++)
+    if (names[i] == name) return (T)i;
+  throw py::value_error(key + ": unknown value \"" + name +
+                        "\" (valid: " + join_names(names) + ")");
+}
+
+// Options from keyword arguments; absent ones keep the library's defaults.
+render_options read_render_options(const py::kwargs& kwargs) {
+  auto  options = render_options{};
+  auto& p       = options.params;
+  for (auto item : kwargs) {
+    auto key   = item.first.cast<std::string>();
+    auto value = item.second;
+    if (key == "shader") {
+      p.shader = read_enum_option<shader_type>(key, value, shader_type_names);
+    } else if (key == "camera") {
+      options.camera = value.is_none() ? "" : read_string_option(key, value);
+    } else if (key == "resolution") {
+      p.resolution = read_int_option(key, value);
+    } else if (key == "samples") {
+      p.samples = read_int_option(key, value);
+    } else if (key == "bounces") {
+      p.bounces = read_int_option(key, value);
+    } else if (key == "clamp") {
+      if (py::isinstance<py::bool_>(value) ||
+          !(py::isinstance<py::float_>(value) ||
+              py::isinstance<py::int_>(value)))
+        throw py::type_error("clamp: expected a number");
+      // Range and finiteness: validate_params().
+      p.clamp = (float)value.cast<double>();
+    } else if (key == "seed") {
+      if (py::isinstance<py::bool_>(value) || !py::isinstance<py::int_>(value))
+        throw py::type_error("seed: expected an integer");
+      auto seed = py::reinterpret_borrow<py::int_>(value);
+      if (seed < py::int_(0) || seed > py::int_(UINT64_MAX))
+        throw py::value_error("seed: must be in [0, 2**64 - 1], found " +
+                              std::string{py::str(seed)});
+      p.seed = seed.cast<uint64_t>();
+    } else if (key == "envhidden") {
+      p.envhidden = read_bool_option(key, value);
+    } else if (key == "tentfilter") {
+      p.tentfilter = read_bool_option(key, value);
+    } else if (key == "noimplicitmis") {
+      p.implicit_mis = !read_bool_option(key, value);
+    } else if (key == "mis") {
+      p.mis = read_enum_option<mis_type>(key, value, mis_type_names);
+    } else if (key == "sampler") {
+      p.sampler =
+          read_enum_option<sampler_type>(key, value, sampler_type_names);
+    } else if (key == "stmaxiter") {
+      p.march.max_iterations = read_int_option(key, value);
+    } else if (key == "accel") {
+      p.accel = read_enum_option<accel_type>(key, value, accel_type_names);
+    } else if (key == "threads") {
+      options.threads = read_int_option(key, value, 0, 4096);
+    } else {
+      throw py::type_error("unknown render option '" + key + "' (options: " +
+                           join_names(render_option_names) + ")");
+    }
+  }
+  return options;
+}
+
+// The defaults, as a dict of option -> value (the library's trace_params).
+py::dict default_render_options() {
+  auto p                   = trace_params{};
+  auto options             = py::dict{};
+  options["shader"]        = shader_type_names[(int)p.shader];
+  options["camera"]        = py::none();
+  options["resolution"]    = p.resolution;
+  options["samples"]       = p.samples;
+  options["bounces"]       = p.bounces;
+  options["clamp"]         = p.clamp;
+  options["seed"]          = p.seed;
+  options["envhidden"]     = p.envhidden;
+  options["tentfilter"]    = p.tentfilter;
+  options["noimplicitmis"] = !p.implicit_mis;
+  options["mis"]           = mis_type_names[(int)p.mis];
+  options["sampler"]       = sampler_type_names[(int)p.sampler];
+  options["stmaxiter"]     = p.march.max_iterations;
+  options["accel"]         = accel_type_names[(int)p.accel];
+  options["threads"]       = 0;
+  return options;
+}
+
+// -----------------------------------------------------------------------------
+// RENDER LOOP
+// -----------------------------------------------------------------------------
+
+// How often the waiting thread takes the GIL to check for Ctrl-C and report
+// progress.
+constexpr auto poll_interval = std::chrono::milliseconds(20);
+
+// The render core's cancel callback: a flag the waiting thread sets.
+bool is_cancelled(void* user) {
+  return ((std::atomic<bool>*)user)->load(std::memory_order_relaxed);
+}
+
+// Add `samples` samples per pixel to `state`, one render_step() per sample
+// (so that a cancel takes effect within one tile of one sample; the core sums
+// samples in order, so the image is that of a single step). The steps run on
+// a worker thread, in a TBB arena of `threads` threads (0: all), while this
+// thread, without the GIL, wakes every poll_interval to run Python's signal
+// handlers and call `progress(done, total)` (samples per pixel) when the
+// count changed. An exception from either (KeyboardInterrupt from Ctrl-C, or
+// one raised by the callback) cancels the render before its next tile and is
+// raised here; the state then holds a partial pass.
+void render_samples(const render_context& context, render_state& state,
+    int samples, int threads, const py::object& progress) {
+  auto mutex     = std::mutex{};
+  auto finished  = std::condition_variable{};
+  auto done      = false;
+  auto error     = std::exception_ptr{};
+  auto cancel    = std::atomic<bool>{false};
+  auto count     = std::atomic<int>{state.samples};
+  auto total     = state.samples + samples;
+  auto callbacks = render_callbacks{nullptr, is_cancelled, &cancel};
+  auto arena =
+      tbb::task_arena(threads > 0 ? threads : tbb::task_arena::automatic);
+
+  auto python_error = std::exception_ptr{};
+  auto reported     = -1;
+  // Deliver signals and progress; true when Python raised.
+  auto poll_python = [&]() {
+    if (PyErr_CheckSignals() != 0) {
+      python_error = std::make_exception_ptr(py::error_already_set());
+      return true;
+    }
+    auto current = count.load();
+    if (progress.is_none() || current == reported) return false;
+    reported = current;
+    try {
+      progress(current, total);
+    } catch (py::error_already_set&) {
+      python_error = std::current_exception();
+      return true;
+    }
+    return false;
+  };
+
+  {
+    py::gil_scoped_release release;
+    auto                   worker = std::thread([&] {
+      try {
+        arena.execute([&] {
+          for (auto sample = 0; sample < samples; sample++) {
+            if (!render_step(context, state, 1, callbacks)) return;
+            count.store(state.samples);
+          }
+        });
+      } catch (...) { error = std::current_exception(); }
+      {
+        auto lock = std::lock_guard<std::mutex>{mutex};
+        done      = true;
+      }
+      finished.notify_all();
+    });
+    while (true) {
+      auto stop = false;
+      {
+        auto lock = std::unique_lock<std::mutex>{mutex};
+        finished.wait_for(lock, poll_interval, [&] { return done; });
+        stop = done;
+      }
+      auto raised = false;
+      {
+        py::gil_scoped_acquire acquire;
+        raised = poll_python();
+      }
+      if (raised) {
+        cancel.store(true);
+        break;
+      }
+      if (stop) break;
+    }
+    worker.join();
+  }
+  if (python_error) std::rethrow_exception(python_error);
+  if (error) std::rethrow_exception(error);
+}
+
+// The context and resolved parameters of a render; the fallbacks (missing
+// camera, eyelight without lights) and the checks are the core's.
+struct py_render_setup {
+  std::shared_ptr<const render_context> context = {};
+  trace_params                          params  = {};
+  int                                   threads = 0;
+};
+
+py_render_setup setup_render(const py_scene& scene, const py::kwargs& kwargs) {
+  auto options  = read_render_options(kwargs);
+  auto setup    = py_render_setup{};
+  setup.threads = options.threads;
+  setup.context = context_for(scene, options.params);
+  auto warnings = std::vector<std::string>{};
+  setup.params =
+      resolve_params(*setup.context, options.params, options.camera, warnings);
+  warn_all(warnings);
+  return setup;
+}
+
+// Render a whole image.
+py::array_t<float> render_scene(const std::shared_ptr<py_scene>& scene,
+    const py::object& progress, const py::kwargs& kwargs) {
+  if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
+    throw py::type_error("progress: expected a callable or None");
+  auto setup = setup_render(*scene, kwargs);
+  auto state = render_state{};
+  {
+    py::gil_scoped_release release;
+    state = make_render_state(*setup.context, setup.params);
+  }
+  render_samples(
+      *setup.context, state, setup.params.samples, setup.threads, progress);
+  return image_to_array(get_image(state));
+}
+
+// A progressive render: each step adds samples.
+struct py_renderer {
+  py_render_setup setup = {};
+  render_state    state = {};
+  bool busy = false;  // a step is running (read and set with the GIL)
+};
+
+std::unique_ptr<py_renderer> make_renderer(
+    const std::shared_ptr<py_scene>& scene, const py::kwargs& kwargs) {
+  auto renderer   = std::make_unique<py_renderer>();
+  renderer->setup = setup_render(*scene, kwargs);
+  py::gil_scoped_release release;
+  renderer->state =
+      make_render_state(*renderer->setup.context, renderer->setup.params);
+  return renderer;
+}
+
+// Add `count` samples; an interrupted step leaves the image as it was.
+void step_renderer(
+    py_renderer& renderer, int count, const py::object& progress) {
+  if (count < 1 || count > (1 << 20))
+    throw py::value_error(
+        "step: the sample count must be in [1, 1048576], found " +
+        std::to_string(count));
+  if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
+    throw py::type_error("progress: expected a callable or None");
+  if (renderer.busy)
+    throw std::runtime_error(
+        "step: this renderer is already rendering (in another thread)");
+  renderer.busy = true;
+  auto backup   = renderer.state;
+  try {
+    render_samples(*renderer.setup.context, renderer.state, count,
+        renderer.setup.threads, progress);
+  } catch (...) {
+    renderer.state = std::move(backup);
+    renderer.busy  = false;
+    throw;
+  }
+  renderer.busy = false;
+}
+
+// -----------------------------------------------------------------------------
+// SDF EXPRESSIONS
+// -----------------------------------------------------------------------------
+
+// An SDF compiled by the scene parser: one program in world space (the
+// sdfunction's own frame folded in as a transform node).
+struct py_sdf {
+  sdf_program program = {};
+};
+
+bool is_identity(const frame3f& f) {
+  return f.x == identity_frame.x && f.y == identity_frame.y &&
+         f.z == identity_frame.z && f.o == identity_frame.o;
+}
+
+// Compile the single sdfunction of a scene given as JSON text.
+py_sdf compile_sdf(const std::string& text, const std::string& filename) {
+  auto warnings = std::vector<std::string>{};
+  auto scene    = parse_scene(text, filename, warnings, false);
+  if (scene.sdfunctions.size() != 1)
+    throw_io_error(filename, "expected exactly one sdfunction, found " +
+                                 std::to_string(scene.sdfunctions.size()));
+  auto& function = scene.sdfunctions.front();
+  auto  sdf      = py_sdf{};
+  sdf.program    = function.program;
+  if (!is_identity(function.local_from_world))
+    add_transform(
+        sdf.program, root_node(sdf.program), function.local_from_world);
+  return sdf;
+}
+
+// Distances at an (N, 3) array of points, in the points' float type.
+template <typename T>
+using c_array = py::array_t<T, py::array::c_style | py::array::forcecast>;
+
+// Distances at an (N, 3) C-contiguous array of points.
+template <typename T>
+py::array_t<T> eval_points(const py_sdf& sdf, const c_array<T>& points) {
+  auto count  = (size_t)points.shape(0);
+  auto result = py::array_t<T>((py::ssize_t)count);
+  auto in     = points.data();
+  auto out    = result.mutable_data();
+  {
+    py::gil_scoped_release release;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096),
+        [&](const tbb::blocked_range<size_t>& range) {
+          for (auto i = range.begin(); i < range.end(); i++) {
+            auto p = vec3f{
+                (float)in[3 * i], (float)in[3 * i + 1], (float)in[3 * i + 2]};
+            out[i] = (T)eval_sdf(sdf.program, p);
+          }
+        });
+  }
+  return result;
+}
+
+py::array eval_sdf_array(const py_sdf& sdf, const py::array& points) {
+  if (points.ndim() != 2 || points.shape(1) != 3)
+    throw py::value_error(
+        "eval: expected points of shape (N, 3), found " + shape_text(points));
+  if (py::isinstance<py::array_t<float>>(points))
+    return eval_points(sdf,
+        py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(
+            points));
+  auto doubles =
+      py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(
+          points);
+  if (!doubles) throw py::type_error("eval: the points must be numbers");
+  return eval_points(sdf, doubles);
+}
+
+py::tuple bounds_tuple(const bbox3f& box) {
+  return py::make_tuple(py::make_tuple(box.min.x, box.min.y, box.min.z),
+      py::make_tuple(box.max.x, box.max.y, box.max.z));
+}
+
+// The bake region: explicit bounds or the SDF's own, padded by `pad` voxels.
+bbox3f bake_bounds(
+    const py_sdf& sdf, float voxel, int pad, const py::object& bounds) {
+  if (!(voxel > 0) || !std::isfinite(voxel))
+    throw py::value_error(
+        "voxel: must be a finite number > 0, found " + std::to_string(voxel));
+  if (pad < 0)
+    throw py::value_error("pad: must be >= 0, found " + std::to_string(pad));
+  auto box = sdf_bounds(sdf.program);
+  if (!bounds.is_none()) {
+    auto b = bounds.cast<std::vector<std::vector<float>>>();
+    if (b.size() != 2 || b[0].size() != 3 || b[1].size() != 3)
+      throw py::value_error(
+          "bounds: expected ((xmin, ymin, zmin), (xmax, ymax, zmax))");
+    box = {{b[0][0], b[0][1], b[0][2]}, {b[1][0], b[1][1], b[1][2]}};
+  } else if (!is_finite(box) || is_empty(box)) {
+    throw py::value_error(
+        "the SDF is unbounded (a plane?): give bounds=((xmin, ymin, zmin), "
+        "(xmax, ymax, zmax))");
+  }
+  return expand(box, pad * voxel);
+}
+
+// Sample the SDF on a grid, as `ysdf bake` does.
+grid_data bake_sdf(
+    const py_sdf& sdf, float voxel, int pad, const py::object& bounds) {
+  auto                   box = bake_bounds(sdf, voxel, pad, bounds);
+  py::gil_scoped_release release;
+  return bake_grid(sdf.program, identity_frame, box, voxel);
+}
+
+// Triangle mesh of the zero set: bake, then OpenVDB volumeToMesh, as
+// `ysdf bake` followed by `ysdf to-mesh`.
+mesh_data mesh_sdf(
+    const py_sdf& sdf, float voxel, int pad, const py::object& bounds) {
+  auto                   grid = bake_sdf(sdf, voxel, pad, bounds);
+  py::gil_scoped_release release;
+  return grid_to_mesh(grid);
+}
+
+py::tuple mesh_to_arrays(const mesh_data& mesh) {
+  auto vertices =
+      py::array_t<float>({(py::ssize_t)mesh.positions.size(), (py::ssize_t)3});
+  auto faces =
+      py::array_t<int>({(py::ssize_t)mesh.triangles.size(), (py::ssize_t)3});
+  if (!mesh.positions.empty())
+    std::memcpy(vertices.mutable_data(), mesh.positions.data(),
+        mesh.positions.size() * sizeof(vec3f));
+  if (!mesh.triangles.empty())
+    std::memcpy(faces.mutable_data(), mesh.triangles.data(),
+        mesh.triangles.size() * sizeof(vec3i));
+  return py::make_tuple(vertices, faces);
+}
+
+}  // namespace
+
+// -----------------------------------------------------------------------------
+// MODULE
+// -----------------------------------------------------------------------------
+
+PYBIND11_MODULE(_implicit, m) {
+  m.doc() =
+      "implicit's renderer, SDF evaluator and file writers (internal; "
+      "use the package `implicit`)";
+  py::register_exception<io_error>(m, "Error", PyExc_Exception);
+
+  py::class_<py_scene, std::shared_ptr<py_scene>>(m, "LoadedScene")
+      .def_property_readonly(
+          "filename", [](const py_scene& s) { return s.filename; })
+      .def_property_readonly(
+          "warnings", [](const py_scene& s) { return s.warnings; })
+      .def_property_readonly("cameras",
+          [](const py_scene& s) {
+            auto names = std::vector<std::string>{};
+            for (auto& camera : s.context->scene.cameras)
+              names.push_back(camera.name);
+            return names;
+          })
+      .def_property_readonly("num_sdfunctions",
+          [](const py_scene& s) { return s.context->scene.sdfunctions.size(); })
+      .def_property_readonly("num_vol_instances",
+          [](const py_scene& s) {
+            return s.context->scene.vol_instances.size();
+          })
+      .def_property_readonly("num_materials",
+          [](const py_scene& s) { return s.context->scene.materials.size(); });
+
+  m.def("load_scene", &load_scene_file, py::arg("filename"));
+  m.def("parse_scene", &parse_scene_text, py::arg("text"), py::arg("filename"));
+
+  m.def("render", &render_scene, py::arg("scene"),
+      py::arg("progress") = py::none());
+  m.def("default_render_options", &default_render_options);
+  m.attr("render_option_names") = render_option_names;
+  m.attr("shader_names")        = shader_type_names;
+  m.attr("material_type_names") = material_type_names;
+
+  py::class_<py_renderer>(m, "Renderer")
+      .def(py::init(&make_renderer), py::arg("scene"))
+      .def("step", &step_renderer, py::arg("samples") = 1,
+          py::arg("progress") = py::none())
+      .def_property_readonly(
+          "samples", [](const py_renderer& r) { return r.state.samples; })
+      .def_property_readonly(
+          "width", [](const py_renderer& r) { return r.state.width; })
+      .def_property_readonly(
+          "height", [](const py_renderer& r) { return r.state.height; })
+      .def_property_readonly("shader",
+          [](const py_renderer& r) {
+            return shader_type_names[(int)r.state.params.shader];
+          })
+      .def("image", [](const py_renderer& r) {
+        if (r.busy)
+          throw std::runtime_error(
+              "image: the renderer is rendering (in another thread)");
+        return image_to_array(get_image(r.state));
+      });
+
+  m.def(
+      "save_image",
+      [](const std::string& filename, const py::array& array, float exposure,
+          bool filmic) {
+        if (!std::isfinite(exposure))
+          throw py::value_error("exposure: must be finite");
+        auto                   image = array_to_image(array);
+        py::gil_scoped_release release;
+        save_image(filename, image, exposure, filmic);
+      },
+      py::arg("filename"), py::arg("image"), py::arg("exposure") = 0.0f,
+      py::arg("filmic") = false);
+  m.def(
+      "load_image",
+      [](const std::string& filename) {
+        auto image = image_data{};
+        {
+          py::gil_scoped_release release;
+          image = load_image(filename);
+        }
+        return image_to_array(image);
+      },
+      py::arg("filename"));
+
+  py::class_<py_sdf>(m, "CompiledSDF")
+      .def("eval", &eval_sdf_array, py::arg("points"))
+      .def("bounds",
+          [](const py_sdf& sdf) {
+            return bounds_tuple(sdf_bounds(sdf.program));
+          })
+      .def(
+          "mesh",
+          [](const py_sdf& sdf, float voxel, int pad,
+              const py::object& bounds) {
+            return mesh_to_arrays(mesh_sdf(sdf, voxel, pad, bounds));
+          },
+          py::arg("voxel"), py::arg("pad"), py::arg("bounds"))
+      .def(
+          "save_mesh",
+          [](const py_sdf& sdf, const std::string& filename, float voxel,
+              int pad, const py::object& bounds) {
+            auto                   mesh = mesh_sdf(sdf, voxel, pad, bounds);
+            py::gil_scoped_release release;
+            save_mesh(filename, mesh);
+          },
+          py::arg("filename"), py::arg("voxel"), py::arg("pad"),
+          py::arg("bounds"))
+      .def(
+          "save_grid",
+          [](const py_sdf& sdf, const std::string& filename, float voxel,
+              int pad, const py::object& bounds, bool binary) {
+            auto                   grid = bake_sdf(sdf, voxel, pad, bounds);
+            py::gil_scoped_release release;
+            save_grid(filename, grid, grid_format_from_uri(filename, binary));
+          },
+          py::arg("filename"), py::arg("voxel"), py::arg("pad"),
+          py::arg("bounds"), py::arg("binary"));
+  m.def("compile_sdf", &compile_sdf, py::arg("text"), py::arg("filename"));
+}
