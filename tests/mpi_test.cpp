@@ -212,10 +212,12 @@ TEST_CASE("mpi: a rank that dies mid-render fails the run, with no output") {
   auto dir    = test_dir("mpi_crash");
   auto scene  = write_test_scene(dir);
   auto output = dir / "out.exr";
-  // Rank 1 aborts after rendering its first tile, before sending it.
+  // Rank 1 aborts after rendering its first tile, before sending it. The
+  // render is long enough (280 tiles, one thread) for rank 1 to start before
+  // rank 0 alone has finished; the abort ends the run early.
   auto result = run_mpi(2,
-      "--scene " + scene + " --resolution 45 --samples 4 --tilesize 16 " +
-          "--quiet --output " + output.string(),
+      "--scene " + scene + " --resolution 160 --samples 64 --tilesize 8 " +
+          "--threads 1 --quiet --output " + output.string(),
       "IMPLICIT_TEST_CRASH_RANK=1");
   INFO(result.output);
   CHECK(result.status != 0);

@@ -171,8 +171,9 @@ static void validate_options(app_options& opts) {
     throw CLI::ValidationError(
         "--output", "unsupported image format \"" + opts.output +
                         "\" (use .png, .jpg, .hdr or .exr)");
+  // Under mpirun only rank 0 writes; other machines may lack the folder.
   try {
-    check_output_directory(opts.output);
+    if (is_primary_process()) check_output_directory(opts.output);
   } catch (const io_error& error) {
     throw CLI::ValidationError("--output", error.what());
   }
