@@ -105,41 +105,90 @@ static std::string scope_path(const std::vector<json_scope>& scopes) {
   return path;
 }
 
-json parse_json(const std::string& text, const std::string& filename) {
-  // nlohmann keeps the last of repeated keys; a scene with two `radius` keys
-  // is a mistake, so a parse callback tracks the keys of each open object.
-  auto scopes       = std::vector<json_scope>{};
-  auto element_done = [&scopes]() {
+// nlohmann's SAX events, forwarded to its DOM builder, with the keys of
+// each open object tracked: a scene with two `radius` keys is a mistake
+// (nlohmann keeps the last). Not json::parse() with a callback: in nlohmann
+// 3.11.2 the callback parser scans the enclosing array after every object,
+// quadratic in a long `operands` list (100,000 operands: 10 s instead of
+// 0.3).
+struct checked_sax {
+  using dom_parser = nlohmann::detail::json_sax_dom_parser<json>;
+  dom_parser              dom;
+  const std::string&      filename;
+  std::vector<json_scope> scopes = {};
+
+  checked_sax(json& result, const std::string& name)
+      : dom{result, true}, filename{name} {}
+  void element_done() {
     if (!scopes.empty() && !scopes.back().is_object) scopes.back().index++;
-  };
-  auto callback = [&](int, json::parse_event_t event, json& parsed) {
-    switch (event) {
-      case json::parse_event_t::object_start:
-        scopes.push_back({true, "", 0, {}});
-        break;
-      case json::parse_event_t::array_start:
-        scopes.push_back({false, "", 0, {}});
-        break;
-      case json::parse_event_t::key: {
-        auto& scope = scopes.back();
-        auto  key   = parsed.get<std::string>();
-        if (!scope.keys.insert(key).second)
-          throw_json_error({filename, scope_path(scopes)}, key,
-              "duplicate key (each key may appear once per object)");
-        scope.key = key;
-        break;
-      }
-      case json::parse_event_t::object_end:
-      case json::parse_event_t::array_end:
-        scopes.pop_back();
-        element_done();
-        break;
-      case json::parse_event_t::value: element_done(); break;
-    }
-    return true;
-  };
+  }
+  bool null() {
+    element_done();
+    return dom.null();
+  }
+  bool boolean(bool value) {
+    element_done();
+    return dom.boolean(value);
+  }
+  bool number_integer(json::number_integer_t value) {
+    element_done();
+    return dom.number_integer(value);
+  }
+  bool number_unsigned(json::number_unsigned_t value) {
+    element_done();
+    return dom.number_unsigned(value);
+  }
+  bool number_float(json::number_float_t value, const json::string_t& text) {
+    element_done();
+    return dom.number_float(value, text);
+  }
+  bool string(json::string_t& value) {
+    element_done();
+    return dom.string(value);
+  }
+  bool binary(json::binary_t& value) {
+    element_done();
+    return dom.binary(value);
+  }
+  bool start_object(std::size_t size) {
+    scopes.push_back({true, "", 0, {}});
+    return dom.start_object(size);
+  }
+  bool key(json::string_t& key) {
+    auto& scope = scopes.back();
+    if (!scope.keys.insert(key).second)
+      throw_json_error({filename, scope_path(scopes)}, key,
+          "duplicate key (each key may appear once per object)");
+    scope.key = key;
+    return dom.key(key);
+  }
+  bool end_object() {
+    scopes.pop_back();
+    element_done();
+    return dom.end_object();
+  }
+  bool start_array(std::size_t size) {
+    scopes.push_back({false, "", 0, {}});
+    return dom.start_array(size);
+  }
+  bool end_array() {
+    scopes.pop_back();
+    element_done();
+    return dom.end_array();
+  }
+  template <class Exception>
+  bool parse_error(
+      std::size_t position, const std::string& token, const Exception& error) {
+    return dom.parse_error(position, token, error);
+  }
+};
+
+json parse_json(const std::string& text, const std::string& filename) {
   try {
-    return json::parse(text, callback);
+    auto result = json{};
+    auto sax    = checked_sax{result, filename};
+    json::sax_parse(text, &sax);
+    return result;
   } catch (const json::parse_error& error) {
     // nlohmann's byte is 1-based and points at the last character read.
     auto position = json_line_column(text, error.byte > 0 ? error.byte - 1 : 0);

@@ -297,6 +297,13 @@ static int parse_sdf_operands(const json_place& place, const json& js,
     throw_json_error(place, "operands",
         "expected at least 2 operands, found " +
             std::to_string(operands->size()));
+  // Refuse a model whose nodes could not be indexed (or allocated) before
+  // reading it: one node per operand and one per operator at least.
+  if (program.nodes.size() + 2 * operands->size() > (size_t)sdf_max_nodes)
+    throw_json_error(place, "operands",
+        "too many operands: " + std::to_string(operands->size()) +
+            " would make the model larger than " +
+            std::to_string(sdf_max_nodes) + " nodes");
   auto operands_place = json_child(place, "operands");
   auto operand_place  = [&](size_t i) {
     return json_element(operands_place, i, (*operands)[i]);

@@ -8,6 +8,7 @@
 
 #include "../util/error.h"
 #include "sdf_grid.h"
+#include "sdf_prune.h"
 
 namespace implicit {
 
@@ -79,7 +80,11 @@ grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,
       make_grid({(int)nx, (int)ny, (int)nz}, spacing, bounds_world.min, 0);
 
   // A map that stretches by s scales distances by s: divide it out.
-  auto  scale = 1 / max_stretch(local_from_world);
+  auto scale = 1 / max_stretch(local_from_world);
+  // The program pruned over the sampled box (samples reach one voxel past
+  // the bounds), so each sample evaluates only the operands near it.
+  auto  field = make_sdf_field(program,
+       transform_bbox(local_from_world, expand(bounds_world, 2 * spacing)));
   auto  bad   = std::atomic<bool>{false};
   auto& n     = grid.dims;
   auto  chunk = std::max(1, n.z / 64);
@@ -93,8 +98,8 @@ grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,
             for (auto i = 0; i < n.x; i++) {
               auto p = bounds_world.min +
                        vec3f{(float)i, (float)j, (float)k} * spacing;
-              auto v = eval_sdf(program, transform_point(local_from_world, p)) *
-                       scale;
+              auto v =
+                  eval_sdf(field, transform_point(local_from_world, p)) * scale;
               if (!std::isfinite(v)) bad = true;
               grid.values[base + i] = v;
             }

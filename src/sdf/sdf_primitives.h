@@ -123,4 +123,42 @@ inline float smooth_max(float a, float b, float blend) {
   return -smooth_min(-a, -b, blend);
 }
 
+// -----------------------------------------------------------------------------
+// SHARED HELPERS (the one copy of each)
+// -----------------------------------------------------------------------------
+
+// Gradient of a distance `f` by tetrahedral central differences with step
+// `step` (IQ, "normals for an SDF"): four evaluations instead of six. Not
+// normalized.
+template <typename Distance>
+inline vec3f tetrahedral_gradient(const Distance& f, vec3f p, float step) {
+  auto k0 = vec3f{1, -1, -1}, k1 = vec3f{-1, -1, 1}, k2 = vec3f{-1, 1, -1},
+       k3 = vec3f{1, 1, 1};
+  return k0 * f(p + k0 * step) + k1 * f(p + k1 * step) + k2 * f(p + k2 * step) +
+         k3 * f(p + k3 * step);
+}
+
+// Both parameters t0 <= t1 where a ray (any direction length) crosses the
+// sphere of radius `radius` about the origin; false if it misses. Stable
+// form (Hearn & Baker, as in pbrt and Ray Tracing Gems ch. 7): the
+// discriminant from the closest approach, the roots from c/q and q/a.
+inline bool intersect_sphere(
+    const ray3f& ray, float radius, float& t0, float& t1) {
+  auto a    = dot(ray.d, ray.d);
+  auto b    = dot(ray.o, ray.d);
+  auto c    = dot(ray.o, ray.o) - radius * radius;
+  auto l    = ray.o - ray.d * (b / a);
+  auto disc = radius * radius - dot(l, l);
+  if (disc < 0) return false;
+  auto q = -b - std::copysign(std::sqrt(a * disc), b);
+  if (q == 0) {
+    t0 = t1 = -b / a;
+    return true;
+  }
+  t0 = c / q;
+  t1 = q / a;
+  if (t0 > t1) std::swap(t0, t1);
+  return true;
+}
+
 }  // namespace implicit

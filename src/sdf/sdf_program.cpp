@@ -3,7 +3,10 @@
 #include "sdf_program.h"
 
 #include <cassert>
+#include <string>
+#include <utility>
 
+#include "../util/error.h"
 #include "sdf_primitives.h"
 
 namespace implicit {
@@ -54,6 +57,153 @@ sdf_program make_primitive_program(const sdf_node& node) {
 }
 
 // -----------------------------------------------------------------------------
+// TAPES
+// -----------------------------------------------------------------------------
+
+// Number of operands of a node (0 for primitives).
+static int operand_count(sdf_type type) {
+  switch (type) {
+    case sdf_type::box:
+    case sdf_type::bbox:
+    case sdf_type::sphere:
+    case sdf_type::torus:
+    case sdf_type::capped_cone:
+    case sdf_type::plane:
+    case sdf_type::capsule:
+    case sdf_type::cylinder:
+    case sdf_type::rounded_box:
+    case sdf_type::ellipsoid:
+    case sdf_type::octahedron: return 0;
+    case sdf_type::op_round:
+    case sdf_type::op_onion:
+    case sdf_type::op_transform: return 1;
+    case sdf_type::op_union:
+    case sdf_type::op_intersection:
+    case sdf_type::op_subtraction:
+    case sdf_type::op_smooth_union:
+    case sdf_type::op_smooth_intersection:
+    case sdf_type::op_smooth_subtraction: return 2;
+  }
+  return 0;
+}
+
+// Throw unless every operand comes before its user and is used once, so
+// that the nodes form one tree rooted at the last node.
+static void check_tree(const sdf_program& program) {
+  auto uses = std::vector<char>(program.nodes.size(), 0);
+  for (auto i = 0; i < (int)program.nodes.size(); i++) {
+    auto& node  = program.nodes[i];
+    auto  count = operand_count(node.type);
+    for (auto k = 0; k < count; k++) {
+      auto operand = k == 0 ? node.left : node.right;
+      if (operand < 0 || operand >= i || uses[operand]++)
+        throw io_error("sdf program: node " + std::to_string(i) + " (" +
+                       sdf_type_names[(int)node.type] + ") has operand " +
+                       std::to_string(operand) +
+                       ", expected an unused earlier node");
+    }
+    if (node.type == sdf_type::op_transform &&
+        (node.frame < 0 || node.frame >= (int)program.frames.size()))
+      throw io_error("sdf program: node " + std::to_string(i) +
+                     " (transform) has no frame");
+  }
+}
+
+// Append the steps of `program` in evaluation order: operands before users,
+// the operand needing the larger stack first (Sethi-Ullman numbers), by a
+// post-order walk with an explicit stack. `node_of(i)` and `space_of(i)`
+// give node i's index in the pool and its space.
+template <typename NodeOf, typename SpaceOf>
+static void emit_instrs(const sdf_program& program, const NodeOf& node_of,
+    const SpaceOf& space_of, std::vector<sdf_instr>& instrs) {
+  auto  n     = (int)program.nodes.size();
+  auto& nodes = program.nodes;
+  auto  need  = std::vector<int>(n, 1);
+  for (auto i = 0; i < n; i++) {
+    auto& node  = nodes[i];
+    auto  count = operand_count(node.type);
+    if (count == 1) {
+      need[i] = need[node.left];
+    } else if (count == 2) {
+      auto l = need[node.left], r = need[node.right];
+      need[i] = l == r ? l + 1 : std::max(l, r);
+    }
+  }
+  if (need[n - 1] > sdf_stack_size)
+    throw io_error("sdf program: needs a value stack of " +
+                   std::to_string(need[n - 1]) + " entries");
+  auto stack = std::vector<std::pair<int, bool>>{{n - 1, false}};
+  instrs.reserve(instrs.size() + n);
+  while (!stack.empty()) {
+    auto [index, expanded] = stack.back();
+    stack.pop_back();
+    auto& node    = nodes[index];
+    auto  count   = operand_count(node.type);
+    auto  swapped = count == 2 && need[node.right] > need[node.left];
+    if (!expanded && count > 0) {
+      stack.push_back({index, true});
+      if (count == 2)
+        stack.push_back({swapped ? node.left : node.right, false});
+      stack.push_back({swapped ? node.right : node.left, false});
+      continue;
+    }
+    auto instr    = sdf_instr{};
+    instr.node    = node_of(index);
+    instr.space   = space_of(index);
+    instr.swapped = swapped;
+    if (node.type == sdf_type::op_transform) {
+      // Its map is in the spaces of the primitives below; only a distance
+      // factor other than 1 (a scaling map) is left to apply.
+      instr.scale = program.frame_scales[node.frame];
+      if (instr.scale == 1) continue;
+    }
+    instrs.push_back(instr);
+  }
+}
+
+sdf_tape make_sdf_tape(const sdf_program& program) {
+  auto tape = sdf_tape{};
+  if (program.nodes.empty()) return tape;
+  check_tree(program);
+  auto  n     = (int)program.nodes.size();
+  auto& nodes = program.nodes;
+  // Spaces, top-down (users come after their operands, so a reverse pass
+  // sees each parent first): a transform opens a space whose map is its
+  // frame after the parent's map.
+  auto space = std::vector<int>(n, invalidid);
+  for (auto i = n - 1; i >= 0; i--) {
+    auto& node  = nodes[i];
+    auto  inner = space[i];
+    if (node.type == sdf_type::op_transform) {
+      auto& frame = program.frames[node.frame];
+      tape.frames.push_back(inner < 0 ? frame : frame * tape.frames[inner]);
+      inner = (int)tape.frames.size() - 1;
+    }
+    auto count = operand_count(node.type);
+    if (count >= 1) space[node.left] = inner;
+    if (count >= 2) space[node.right] = inner;
+  }
+  tape.nodes  = program.nodes;
+  tape.spaces = std::move(space);
+  emit_instrs(
+      program, [](int index) { return index; },
+      [&](int index) { return tape.spaces[index]; }, tape.instrs);
+  return tape;
+}
+
+std::vector<sdf_instr> make_sdf_instrs(
+    const sdf_program& pruned, const sdf_tape& pool) {
+  auto instrs = std::vector<sdf_instr>{};
+  if (pruned.nodes.empty()) return instrs;
+  check_tree(pruned);
+  emit_instrs(
+      pruned, [&](int index) { return pruned.nodes[index].origin; },
+      [&](int index) { return pool.spaces[pruned.nodes[index].origin]; },
+      instrs);
+  return instrs;
+}
+
+// -----------------------------------------------------------------------------
 // EVALUATION
 // -----------------------------------------------------------------------------
 
@@ -86,45 +236,79 @@ float eval_primitive(const sdf_node& node, vec3f p) {
   return flt_max;
 }
 
-// Recursive evaluation of node `index`; depth is bounded by the tree depth.
-static float eval_node(const sdf_program& program, int index, vec3f p) {
-  auto& node = program.nodes[index];
-  switch (node.type) {
-    case sdf_type::op_union:
-      return std::min(
-          eval_node(program, node.left, p), eval_node(program, node.right, p));
-    case sdf_type::op_intersection:
-      return std::max(
-          eval_node(program, node.left, p), eval_node(program, node.right, p));
-    case sdf_type::op_subtraction:
-      return std::max(
-          eval_node(program, node.left, p), -eval_node(program, node.right, p));
-    case sdf_type::op_smooth_union:
-      return smooth_min(eval_node(program, node.left, p),
-          eval_node(program, node.right, p), node.blend);
-    case sdf_type::op_smooth_intersection:
-      return smooth_max(eval_node(program, node.left, p),
-          eval_node(program, node.right, p), node.blend);
-    case sdf_type::op_smooth_subtraction:
-      return smooth_max(eval_node(program, node.left, p),
-          -eval_node(program, node.right, p), node.blend);
-    case sdf_type::op_round:
-      return eval_node(program, node.left, p) - node.radius;
-    case sdf_type::op_onion:
-      return std::abs(eval_node(program, node.left, p)) - node.thickness;
-    case sdf_type::op_transform:
-      return eval_node(program, node.left,
-                 transform_point(program.frames[node.frame], p)) *
-             program.frame_scales[node.frame];
-    default: return eval_primitive(node, p);
+float eval_sdf(const sdf_tape& tape, vec3f p) {
+  assert(!tape.instrs.empty());
+  return eval_sdf(
+      tape, tape.instrs.data(), tape.instrs.data() + tape.instrs.size(), p);
+}
+
+float eval_sdf(const sdf_tape& pool, const sdf_instr* begin,
+    const sdf_instr* end, vec3f p) {
+  auto& tape = pool;
+  float stack[sdf_stack_size];
+  auto  top   = 0;  // number of values on the stack
+  auto  space = invalidid;
+  auto  q     = p;  // p in `space`
+  for (auto it = begin; it != end; ++it) {
+    auto& instr = *it;
+    auto& node  = tape.nodes[instr.node];
+    // Binary operators read a (left) and b (right) from the top two entries.
+    auto binary = [&](auto op) {
+      auto b = stack[top - 1], a = stack[top - 2];
+      if (instr.swapped) std::swap(a, b);
+      top--;
+      stack[top - 1] = op(a, b);
+    };
+    switch (node.type) {
+      case sdf_type::box:
+      case sdf_type::bbox:
+      case sdf_type::sphere:
+      case sdf_type::torus:
+      case sdf_type::capped_cone:
+      case sdf_type::plane:
+      case sdf_type::capsule:
+      case sdf_type::cylinder:
+      case sdf_type::rounded_box:
+      case sdf_type::ellipsoid:
+      case sdf_type::octahedron:
+        if (instr.space != space) {
+          space = instr.space;
+          q     = space < 0 ? p : transform_point(tape.frames[space], p);
+        }
+        assert(top < sdf_stack_size);
+        stack[top++] = eval_primitive(node, q);
+        break;
+      case sdf_type::op_union:
+        binary([](float a, float b) { return std::min(a, b); });
+        break;
+      case sdf_type::op_intersection:
+        binary([](float a, float b) { return std::max(a, b); });
+        break;
+      case sdf_type::op_subtraction:
+        binary([](float a, float b) { return std::max(a, -b); });
+        break;
+      case sdf_type::op_smooth_union:
+        binary([&](float a, float b) { return smooth_min(a, b, node.blend); });
+        break;
+      case sdf_type::op_smooth_intersection:
+        binary([&](float a, float b) { return smooth_max(a, b, node.blend); });
+        break;
+      case sdf_type::op_smooth_subtraction:
+        binary([&](float a, float b) { return smooth_max(a, -b, node.blend); });
+        break;
+      case sdf_type::op_round: stack[top - 1] -= node.radius; break;
+      case sdf_type::op_onion:
+        stack[top - 1] = std::abs(stack[top - 1]) - node.thickness;
+        break;
+      case sdf_type::op_transform: stack[top - 1] *= instr.scale; break;
+    }
   }
+  assert(top == 1);
+  return stack[0];
 }
 
 float eval_sdf(const sdf_program& program, vec3f p) {
-  assert(!program.nodes.empty());
-  auto& root = program.nodes.back();
-  if (is_primitive(root.type)) return eval_primitive(root, p);
-  return eval_node(program, root_node(program), p);
+  return eval_sdf(make_sdf_tape(program), p);
 }
 
 // Analytic gradient where it is cheap and exact; returns false otherwise.
@@ -157,30 +341,44 @@ static bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g) {
       g      = normalize(p - c);
       return true;
     }
-    default: return false;
+    case sdf_type::bbox:
+    case sdf_type::capped_cone:
+    case sdf_type::capsule:
+    case sdf_type::cylinder:
+    case sdf_type::rounded_box:
+    case sdf_type::ellipsoid:
+    case sdf_type::octahedron:
+    case sdf_type::op_union:
+    case sdf_type::op_intersection:
+    case sdf_type::op_subtraction:
+    case sdf_type::op_smooth_union:
+    case sdf_type::op_smooth_intersection:
+    case sdf_type::op_smooth_subtraction:
+    case sdf_type::op_round:
+    case sdf_type::op_onion:
+    case sdf_type::op_transform: return false;
   }
+  return false;
+}
+
+vec3f eval_sdf_gradient(const sdf_tape& tape, vec3f p, float step) {
+  auto g = vec3f{};
+  if (tape.instrs.size() == 1 && tape.instrs[0].space == invalidid &&
+      eval_primitive_gradient(tape.nodes[tape.instrs[0].node], p, g))
+    return g;
+  return normalize(tetrahedral_gradient(
+      [&](vec3f q) { return eval_sdf(tape, q); }, p, step));
 }
 
 vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step) {
-  auto& root = program.nodes.back();
-  auto  g    = vec3f{};
-  if (is_primitive(root.type) && eval_primitive_gradient(root, p, g)) return g;
-  // Tetrahedral central differences (IQ, "normals for an SDF"): four
-  // evaluations instead of six.
-  auto k0 = vec3f{1, -1, -1}, k1 = vec3f{-1, -1, 1}, k2 = vec3f{-1, 1, -1},
-       k3 = vec3f{1, 1, 1};
-  g       = k0 * eval_sdf(program, p + k0 * step) +
-      k1 * eval_sdf(program, p + k1 * step) +
-      k2 * eval_sdf(program, p + k2 * step) +
-      k3 * eval_sdf(program, p + k3 * step);
-  return normalize(g);
+  return eval_sdf_gradient(make_sdf_tape(program), p, step);
 }
 
 // -----------------------------------------------------------------------------
 // BOUNDS AND LIPSCHITZ
 // -----------------------------------------------------------------------------
 
-static bbox3f primitive_bounds(const sdf_node& node) {
+bbox3f primitive_bounds(const sdf_node& node) {
   auto centered = [](vec3f half) { return bbox3f{-half, half}; };
   switch (node.type) {
     case sdf_type::box: return {{0, 0, 0}, node.size};
@@ -203,50 +401,21 @@ static bbox3f primitive_bounds(const sdf_node& node) {
     case sdf_type::rounded_box: return centered(node.size);
     case sdf_type::ellipsoid: return centered(node.size);
     case sdf_type::octahedron: return centered(vec3f{1, 1, 1} * node.radius);
-    default: return {};
-  }
-}
-
-static bbox3f node_bounds(const sdf_program& program, int index) {
-  auto& node = program.nodes[index];
-  switch (node.type) {
     case sdf_type::op_union:
-      return merge(
-          node_bounds(program, node.left), node_bounds(program, node.right));
     case sdf_type::op_intersection:
-      return intersect(
-          node_bounds(program, node.left), node_bounds(program, node.right));
-    case sdf_type::op_subtraction: return node_bounds(program, node.left);
-    // The smooth minimum lies at most blend/4 below the minimum, so a
-    // smooth union grows by that much; the smooth maximum is never below the
-    // maximum, so smooth intersections and subtractions do not grow.
+    case sdf_type::op_subtraction:
     case sdf_type::op_smooth_union:
-      return expand(merge(node_bounds(program, node.left),
-                        node_bounds(program, node.right)),
-          node.blend * 0.25f);
     case sdf_type::op_smooth_intersection:
-      return intersect(
-          node_bounds(program, node.left), node_bounds(program, node.right));
     case sdf_type::op_smooth_subtraction:
-      return node_bounds(program, node.left);
     case sdf_type::op_round:
-      return expand(node_bounds(program, node.left), node.radius);
     case sdf_type::op_onion:
-      return expand(node_bounds(program, node.left), node.thickness);
-    case sdf_type::op_transform:
-      return transform_bbox(
-          inverse(program.frames[node.frame]), node_bounds(program, node.left));
-    default: return primitive_bounds(node);
+    case sdf_type::op_transform: break;
   }
+  assert(false && "primitive_bounds on an operator");
+  return {};
 }
 
-bbox3f sdf_bounds(const sdf_program& program) {
-  if (program.nodes.empty()) return {};
-  return node_bounds(program, root_node(program));
-}
-
-static float node_lipschitz(const sdf_program& program, int index) {
-  auto& node = program.nodes[index];
+float primitive_lipschitz(const sdf_node& node) {
   switch (node.type) {
     case sdf_type::ellipsoid: {
       // IQ's bound k0(k0-1)/k1 is steeper than 1 away from the surface by at
@@ -254,24 +423,110 @@ static float node_lipschitz(const sdf_program& program, int index) {
       auto lo = min(node.size), hi = max(node.size);
       return lo > 0 ? hi / lo : 1;
     }
+    case sdf_type::box:
+    case sdf_type::bbox:
+    case sdf_type::sphere:
+    case sdf_type::torus:
+    case sdf_type::capped_cone:
+    case sdf_type::plane:
+    case sdf_type::capsule:
+    case sdf_type::cylinder:
+    case sdf_type::rounded_box:
+    case sdf_type::octahedron: return 1;
     case sdf_type::op_union:
     case sdf_type::op_intersection:
     case sdf_type::op_subtraction:
     case sdf_type::op_smooth_union:
     case sdf_type::op_smooth_intersection:
     case sdf_type::op_smooth_subtraction:
-      return std::max(node_lipschitz(program, node.left),
-          node_lipschitz(program, node.right));
     case sdf_type::op_round:
     case sdf_type::op_onion:
-    case sdf_type::op_transform: return node_lipschitz(program, node.left);
-    default: return 1;
+    case sdf_type::op_transform: break;
   }
+  assert(false && "primitive_lipschitz on an operator");
+  return 1;
 }
 
+// One forward pass over the nodes (operands come first), no recursion.
+//
+// A smooth union lies below the minimum of its operands by at most
+// depth = k h^2 / 4 (h = max(k - |a - b|, 0) / k), so its box is the merged
+// boxes of its operands grown by that. Nested smooth unions keep the merged
+// box unexpanded (`cores`) and the depth: if the operands lie at most d_a
+// and d_b below the minimum m of their own operands, the smooth minimum,
+// monotone in each operand, is at least smooth_min(m - d_a, m - d_b), which
+// lies below m by max(d_a, d_b) + k h^2 / 4 with h from |d_a - d_b|. Along
+// the left-folded chains that `operands` lists make (d_b = 0), the depth
+// converges to k instead of growing by k/4 per operand.
+bbox3f sdf_bounds(const sdf_program& program) {
+  if (program.nodes.empty()) return {};
+  auto bounds = std::vector<bbox3f>(program.nodes.size());
+  auto cores  = std::vector<bbox3f>(program.nodes.size());
+  auto depths = std::vector<float>(program.nodes.size(), 0);
+  for (auto i = 0; i < (int)program.nodes.size(); i++) {
+    auto& node = program.nodes[i];
+    auto  left = [&] { return bounds[node.left]; };
+    auto  both = [&] { return merge(bounds[node.left], bounds[node.right]); };
+    auto  meet = [&] {
+      return intersect(bounds[node.left], bounds[node.right]);
+    };
+    auto& box = bounds[i];
+    switch (node.type) {
+      case sdf_type::op_union: box = both(); break;
+      case sdf_type::op_intersection: box = meet(); break;
+      case sdf_type::op_subtraction: box = left(); break;
+      // The smooth minimum lies at most blend/4 below the minimum, so a
+      // smooth union grows by that much; the smooth maximum is never below
+      // the maximum, so smooth intersections and subtractions do not grow.
+      case sdf_type::op_smooth_union: {
+        auto core = [&](int k) { return depths[k] > 0 ? cores[k] : bounds[k]; };
+        auto da = depths[node.left], db = depths[node.right];
+        auto k    = std::max(node.blend, 0.0f);
+        auto h    = k > 0 ? std::max(k - std::abs(da - db), 0.0f) / k : 0.0f;
+        cores[i]  = merge(core(node.left), core(node.right));
+        depths[i] = std::max(da, db) + k * h * h * 0.25f;
+        box       = expand(cores[i], depths[i]);
+        break;
+      }
+      case sdf_type::op_smooth_intersection: box = meet(); break;
+      case sdf_type::op_smooth_subtraction: box = left(); break;
+      case sdf_type::op_round: box = expand(left(), node.radius); break;
+      case sdf_type::op_onion: box = expand(left(), node.thickness); break;
+      case sdf_type::op_transform:
+        box = transform_bbox(inverse(program.frames[node.frame]), left());
+        break;
+      case sdf_type::box:
+      case sdf_type::bbox:
+      case sdf_type::sphere:
+      case sdf_type::torus:
+      case sdf_type::capped_cone:
+      case sdf_type::plane:
+      case sdf_type::capsule:
+      case sdf_type::cylinder:
+      case sdf_type::rounded_box:
+      case sdf_type::ellipsoid:
+      case sdf_type::octahedron: box = primitive_bounds(node); break;
+    }
+  }
+  return bounds.back();
+}
+
+// One forward pass, as sdf_bounds().
 float sdf_lipschitz(const sdf_program& program) {
   if (program.nodes.empty()) return 1;
-  return node_lipschitz(program, root_node(program));
+  auto lipschitz = std::vector<float>(program.nodes.size(), 1);
+  for (auto i = 0; i < (int)program.nodes.size(); i++) {
+    auto& node  = program.nodes[i];
+    auto  count = operand_count(node.type);
+    if (count == 0) {
+      lipschitz[i] = primitive_lipschitz(node);
+    } else if (count == 1) {
+      lipschitz[i] = lipschitz[node.left];
+    } else {
+      lipschitz[i] = std::max(lipschitz[node.left], lipschitz[node.right]);
+    }
+  }
+  return lipschitz.back();
 }
 
 // -----------------------------------------------------------------------------
@@ -299,24 +554,12 @@ static bool first_root(float t0, float t1, const ray3f& ray, float& t) {
 }
 
 bool intersect_sdf_exact(
-    const sdf_program& program, const ray3f& ray, bool& hit, float& t) {
-  if (!has_exact_intersection(program)) return false;
-  auto& node = program.nodes[0];
-  hit        = false;
+    const sdf_node& node, const ray3f& ray, bool& hit, float& t) {
+  hit = false;
   switch (node.type) {
     case sdf_type::sphere: {
-      // Quadratic in t; the ray direction need not be unit length.
-      auto a = dot(ray.d, ray.d);
-      auto b = dot(ray.o, ray.d);
-      auto c = dot(ray.o, ray.o) - node.radius * node.radius;
-      // Stable discriminant (Hearn & Baker form used by pbrt/RT Gems ch. 7).
-      auto l    = ray.o - ray.d * (b / a);
-      auto disc = node.radius * node.radius - dot(l, l);
-      if (disc < 0) return true;
-      auto q  = -b - std::copysign(std::sqrt(a * disc), b);
-      auto t0 = c / q, t1 = q / a;
-      if (q == 0) t0 = t1 = -b / a;
-      if (t0 > t1) std::swap(t0, t1);
+      auto t0 = 0.0f, t1 = 0.0f;
+      if (!intersect_sphere(ray, node.radius, t0, t1)) return true;
       hit = first_root(t0, t1, ray, t);
       return true;
     }
@@ -335,8 +578,25 @@ bool intersect_sdf_exact(
       if (hit) t = tp;
       return true;
     }
-    default: return false;
+    case sdf_type::bbox:
+    case sdf_type::torus:
+    case sdf_type::capped_cone:
+    case sdf_type::capsule:
+    case sdf_type::cylinder:
+    case sdf_type::rounded_box:
+    case sdf_type::ellipsoid:
+    case sdf_type::octahedron:
+    case sdf_type::op_union:
+    case sdf_type::op_intersection:
+    case sdf_type::op_subtraction:
+    case sdf_type::op_smooth_union:
+    case sdf_type::op_smooth_intersection:
+    case sdf_type::op_smooth_subtraction:
+    case sdf_type::op_round:
+    case sdf_type::op_onion:
+    case sdf_type::op_transform: return false;
   }
+  return false;
 }
 
 }  // namespace implicit

@@ -65,6 +65,7 @@ struct sdf_node {
   int      left      = invalidid;
   int      right     = invalidid;
   int      frame     = invalidid;  // index in sdf_program::frames
+  int      origin    = invalidid;  // pruned copies: the node it came from
 };
 
 // A flat expression tree. Operands come before the nodes that use them; the
@@ -96,28 +97,86 @@ inline int root_node(const sdf_program& program) {
 }
 
 // -----------------------------------------------------------------------------
+// TAPES
+// -----------------------------------------------------------------------------
+
+// Most nodes in one program: node indices are ints, and a loader refuses a
+// larger model (with its file and element) before allocating it.
+inline constexpr int sdf_max_nodes = 1 << 26;
+
+// Value stack of a tape. The tape evaluates the deeper operand of each
+// binary node first (Sethi and Ullman 1970), so a tree of n leaves needs at
+// most floor(log2 n) + 1 entries whatever its shape: 32 cover any program
+// with int indices.
+inline constexpr int sdf_stack_size = 32;
+
+// One step of a tape: a primitive pushes its value at the point mapped into
+// `space`, an operator pops its operands and pushes its value; `swapped`
+// says that the right operand was evaluated first (it lies below the left).
+// Steps name their node in the tape's node pool, so that the many pruned
+// step lists of an sdf_field share one copy of the nodes and maps.
+struct sdf_instr {
+  int   node    = invalidid;  // in sdf_tape::nodes
+  int   space   = invalidid;  // primitives: in sdf_tape::frames
+  float scale   = 1;          // transforms: distance factor
+  bool  swapped = false;
+};
+
+// A program compiled for evaluation without recursion, as libfive flattens
+// its trees: the steps in evaluation order, the program's nodes, and the map
+// from the program's space into each transform's space, composed once
+// (nested transforms cost one map per primitive, not one per level).
+struct sdf_tape {
+  std::vector<sdf_instr> instrs = {};
+  std::vector<sdf_node>  nodes  = {};  // the program's nodes
+  std::vector<frame3f>   frames = {};  // child_from_root of each space
+  std::vector<int>       spaces = {};  // space of each node
+};
+
+// Compile a program. Throws io_error if the nodes do not form a tree whose
+// operands come before their users.
+sdf_tape make_sdf_tape(const sdf_program& program);
+// Steps of a program pruned from the tape's program (its nodes' `origin`
+// index the tape's nodes), evaluated with the tape's nodes and maps.
+std::vector<sdf_instr> make_sdf_instrs(
+    const sdf_program& pruned, const sdf_tape& pool);
+
+// -----------------------------------------------------------------------------
 // EVALUATION
 // -----------------------------------------------------------------------------
 
 // Distance of one primitive node at a local point.
 float eval_primitive(const sdf_node& node, vec3f p);
-// Distance of the whole program at a local point.
+// Distance of a compiled program at a local point. Allocates nothing.
+float eval_sdf(const sdf_tape& tape, vec3f p);
+// Distance of the steps [begin, end) over the nodes and maps of `pool`.
+float eval_sdf(const sdf_tape& pool, const sdf_instr* begin,
+    const sdf_instr* end, vec3f p);
+// Unit gradient of a compiled program; analytic for simple primitives,
+// otherwise tetrahedral central differences with step `step`.
+vec3f eval_sdf_gradient(const sdf_tape& tape, vec3f p, float step);
+// Distance of the whole program at a local point. Compiles a tape on every
+// call: for tests and single queries; loops compile once with make_sdf_tape.
 float eval_sdf(const sdf_program& program, vec3f p);
-// Gradient of the program; analytic for simple primitives, otherwise
-// tetrahedral central differences with step `step`.
+// Unit gradient of the program (compiles a tape, as above).
 vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step);
+
+// Bounding box of the zero set of one primitive, in its local space.
+bbox3f primitive_bounds(const sdf_node& node);
+// Lipschitz factor of one primitive (1 for exact distances).
+float primitive_lipschitz(const sdf_node& node);
 
 // Bounding box of the zero set, in local space. Unbounded axes are infinite.
 bbox3f sdf_bounds(const sdf_program& program);
 // Lipschitz bound of the program (1 for exact distances).
 float sdf_lipschitz(const sdf_program& program);
 
-// Closed-form intersection of a single-primitive program, when one exists
-// (sphere, box, plane). Returns false when the program has none; otherwise
-// `hit` tells whether the ray hits in [tmin, tmax] and `t` is the first hit.
+// Closed-form intersection of one primitive node, when one exists (sphere,
+// box, plane). Returns false when the node has none; otherwise `hit` tells
+// whether the ray hits in [tmin, tmax] and `t` is the first hit.
 bool intersect_sdf_exact(
-    const sdf_program& program, const ray3f& ray, bool& hit, float& t);
-// Whether intersect_sdf_exact() applies to this program.
+    const sdf_node& node, const ray3f& ray, bool& hit, float& t);
+// Whether intersect_sdf_exact() applies to this one-node program.
 bool has_exact_intersection(const sdf_program& program);
 
 }  // namespace implicit

@@ -230,9 +230,9 @@ TEST_CASE("sdf programs: gradients") {
 TEST_CASE("sdf programs: exact intersections") {
   auto sphere   = make_node(sdf_type::sphere);
   sphere.radius = 1;
-  auto program  = make_primitive_program(sphere);
-  auto hit      = false;
-  auto t        = 0.0f;
+  auto& program = sphere;
+  auto  hit     = false;
+  auto  t       = 0.0f;
   REQUIRE(intersect_sdf_exact(
       program, {{0, 0, -5}, {0, 0, 1}, 0, flt_max}, hit, t));
   CHECK(hit);
@@ -252,21 +252,17 @@ TEST_CASE("sdf programs: exact intersections") {
   // Box with corner at origin; a ray parallel to a face inside the slab.
   auto box = make_node(sdf_type::box);
   box.size = {1, 2, 3};
-  intersect_sdf_exact(
-      make_primitive_program(box), {{-1, 1, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
+  intersect_sdf_exact(box, {{-1, 1, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
   CHECK(hit);
   CHECK(t == doctest::Approx(1.0f));
-  intersect_sdf_exact(make_primitive_program(box),
-      {{-1, 2.5f, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
+  intersect_sdf_exact(box, {{-1, 2.5f, 1}, {1, 0, 0}, 0, flt_max}, hit, t);
   CHECK(!hit);
   // Plane.
   auto plane = make_node(sdf_type::plane);
-  intersect_sdf_exact(make_primitive_program(plane),
-      {{0, 2, 0}, {0, -1, 0}, 0, flt_max}, hit, t);
+  intersect_sdf_exact(plane, {{0, 2, 0}, {0, -1, 0}, 0, flt_max}, hit, t);
   CHECK(hit);
   CHECK(t == doctest::Approx(2.0f));
-  intersect_sdf_exact(make_primitive_program(plane),
-      {{0, 2, 0}, {1, 0, 0}, 0, flt_max}, hit, t);
+  intersect_sdf_exact(plane, {{0, 2, 0}, {1, 0, 0}, 0, flt_max}, hit, t);
   CHECK(!hit);
   // Not applicable to operators.
   CHECK(!has_exact_intersection(two_spheres(sdf_type::op_union)));

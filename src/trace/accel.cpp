@@ -22,25 +22,43 @@ static void finish_object(trace_object& object) {
       transform_bbox(object.world_from_local, object.local_bounds);
 }
 
+// Box of an object's field: its local box with room for the box padding and
+// the rounding of points on it (points outside use the whole program).
+static bbox3f field_box(const trace_object& object) {
+  auto& box = object.local_bounds;
+  if (is_empty(box) || !is_finite(box)) return {};
+  return expand(box, 2 * object.local_padding + 1e-3f * length(size(box)));
+}
+
 accel_data make_accel(
     const scene_data& scene, accel_type type, const march_params& march) {
   auto accel  = accel_data{};
   accel.type  = type;
   accel.march = march;
+  // Programs of the function objects, made into fields once the padding is
+  // known (at the end).
+  auto programs = std::vector<sdf_program>{};
   for (auto i = 0; i < (int)scene.sdfunctions.size(); i++) {
-    auto& function          = scene.sdfunctions[i];
-    auto  object            = trace_object{};
-    object.kind             = object_kind::function;
-    object.index            = i;
-    object.material         = function.material;
-    object.program          = &function.program;
-    object.local_from_world = function.local_from_world;
-    object.local_bounds     = sdf_bounds(function.program);
-    object.exact            = has_exact_intersection(function.program);
-    finish_object(object);
-    // Lipschitz bounds above 1 shrink the safe step.
-    object.distance_scale /= std::max(1.0f, sdf_lipschitz(function.program));
-    accel.objects.push_back(object);
+    auto& function = scene.sdfunctions[i];
+    auto  parts    = type == accel_type::bvh
+                         ? split_sdf_union(function.program)
+                         : std::vector<sdf_program>{function.program};
+    for (auto& part : parts) {
+      auto object             = trace_object{};
+      object.kind             = object_kind::function;
+      object.index            = i;
+      object.material         = function.material;
+      object.local_from_world = function.local_from_world;
+      object.local_bounds     = sdf_bounds(part);
+      object.exact            = has_exact_intersection(part);
+      object.single           = part.nodes.size() == 1;
+      if (object.single) object.shape = part.nodes[0];
+      finish_object(object);
+      // Lipschitz bounds above 1 shrink the safe step.
+      object.distance_scale /= std::max(1.0f, sdf_lipschitz(part));
+      accel.objects.push_back(object);
+      programs.push_back(std::move(part));
+    }
   }
   for (auto i = 0; i < (int)scene.vol_instances.size(); i++) {
     auto& instance  = scene.vol_instances[i];
@@ -89,6 +107,15 @@ accel_data make_accel(
   auto padding = object_box_padding(accel);
   for (auto& object : accel.objects)
     object.local_padding = padding * max_stretch(object.local_from_world);
+  // Fields: pruned over the object's box (bvh), or the whole tree (none).
+  for (auto k = 0; k < (int)programs.size(); k++) {
+    auto& object     = accel.objects[k];
+    auto  box        = type == accel_type::bvh ? field_box(object) : bbox3f{};
+    auto  params     = sdf_field_params{};
+    params.max_bytes = accel.march.prune_bytes;
+    object.field     = std::make_shared<const sdf_field>(
+        make_sdf_field(programs[k], box, params));
+  }
   // Objects with finite boxes go into the BVH, the others beside it; empty
   // boxes (an intersection of disjoint shapes) can never be hit.
   for (auto i = 0; i < (int)accel.objects.size(); i++) {
@@ -117,7 +144,7 @@ accel_data make_accel(
 // Distance in the object's own space.
 static float eval_local(const trace_object& object, vec3f p) {
   switch (object.kind) {
-    case object_kind::function: return eval_sdf(*object.program, p);
+    case object_kind::function: return eval_sdf(*object.field, p);
     case object_kind::grid: return eval_grid(*object.grid, p);
     case object_kind::user: return object.user->eval(p);
   }
@@ -137,17 +164,12 @@ vec3f eval_object_normal(
   auto h = step / std::max(object.distance_scale, 1e-20f);
   switch (object.kind) {
     case object_kind::function:
-      local = eval_sdf_gradient(*object.program, p, h);
+      local = eval_sdf_gradient(*object.field, p, h);
       break;
     case object_kind::grid: local = eval_grid_gradient(*object.grid, p); break;
-    case object_kind::user: {
-      auto& f  = object.user->eval;
-      auto  k0 = vec3f{1, -1, -1}, k1 = vec3f{-1, -1, 1}, k2 = vec3f{-1, 1, -1},
-           k3 = vec3f{1, 1, 1};
-      local   = k0 * f(p + k0 * h) + k1 * f(p + k1 * h) + k2 * f(p + k2 * h) +
-              k3 * f(p + k3 * h);
+    case object_kind::user:
+      local = tetrahedral_gradient(object.user->eval, p, h);
       break;
-    }
   }
   // Gradients are covectors: world = transpose(local_from_world) * local.
   return normalize(transpose(rotation(object.local_from_world)) * local);
@@ -177,9 +199,8 @@ static march_result march_object(const accel_data& accel,
   };
   switch (object.kind) {
     case object_kind::function: {
-      auto& program = *object.program;
-      if (program.nodes.size() == 1) {
-        auto& node = program.nodes[0];
+      if (object.single) {
+        auto& node = object.shape;
         auto  size = node.size;
         auto  r1 = node.radius, r2 = node.radius2, h = node.height;
         switch (node.type) {
@@ -202,10 +223,26 @@ static march_result march_object(const accel_data& accel,
             return march([=](vec3f p) { return sd_ellipsoid(p, size); });
           case sdf_type::octahedron:
             return march([=](vec3f p) { return sd_octahedron(p, r1); });
-          default: break;
+          case sdf_type::box:
+          case sdf_type::sphere:
+          case sdf_type::plane:
+          case sdf_type::op_union:
+          case sdf_type::op_intersection:
+          case sdf_type::op_subtraction:
+          case sdf_type::op_smooth_union:
+          case sdf_type::op_smooth_intersection:
+          case sdf_type::op_smooth_subtraction:
+          case sdf_type::op_round:
+          case sdf_type::op_onion:
+          case sdf_type::op_transform: break;
         }
       }
-      return march([&](vec3f p) { return eval_sdf(program, p); });
+      auto& field = *object.field;
+      if (field.cells.empty()) {
+        auto& tape = field.full;
+        return march([&](vec3f p) { return eval_sdf(tape, p); });
+      }
+      return march([&](vec3f p) { return eval_sdf(field, p); });
     }
     case object_kind::grid: {
       auto& grid = *object.grid;
@@ -229,7 +266,7 @@ scene_intersection intersect_object(
   if (object.exact && object.kind == object_kind::function) {
     auto hit = false;
     auto t   = 0.0f;
-    intersect_sdf_exact(*object.program, local, hit, t);
+    intersect_sdf_exact(object.shape, local, hit, t);
     isec.evaluations = 1;
     if (hit) {
       isec.hit      = true;

@@ -19,10 +19,12 @@
 // intersect_object(), and it is the same at any thread count.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "../scene/scene.h"
+#include "../sdf/sdf_prune.h"
 
 // Embree's handle types (rtcore_device.h, rtcore_geometry.h), declared here so
 // that only the implementation includes Embree.
@@ -53,6 +55,8 @@ struct march_params {
                                  // thresholds counts as a hit
   int linear_max = 8;            // up to this many bounded objects are
                                  // tested in a loop, not through the BVH
+  size_t prune_bytes = 0;        // budget of each object's pruned steps
+                                 // (0: sdf_field_params' default)
 };
 
 // -----------------------------------------------------------------------------
@@ -65,20 +69,35 @@ enum class object_kind { function, grid, user };
 // points to the space where the object's function is evaluated (grid space
 // for grids, including the instance scale); a local distance times
 // `distance_scale` bounds the world distance from below.
+//
+// With the `bvh` accel, an sdfunction whose root is a hard union (also below
+// transforms and nested unions) becomes one object per bounded operand, all
+// with the function's index, material and frame, so that a ray marches only
+// the operands whose boxes it crosses; its unbounded operands stay together
+// as one more object. The closest hit of the parts is the union's: the union
+// is below the hit threshold exactly where one of its operands is. At a hit
+// the normal is the hit part's gradient, which is the union's gradient
+// wherever that part is the minimum (the minimum of functions has the
+// gradient of the one that attains it, off the measure-zero set where two
+// are equal and the union has a crease anyway). Every function object owns
+// its program as an sdf_field: pruned per cell of an octree over its box for
+// the `bvh` accel, the whole tree for the reference (`none`).
 struct trace_object {
-  object_kind          kind             = object_kind::function;
-  int                  index            = invalidid;  // in the scene array
-  int                  material         = invalidid;
-  frame3f              local_from_world = {};
-  frame3f              world_from_local = {};
-  float                distance_scale   = 1;
-  bbox3f               local_bounds     = {};
-  bbox3f               world_bounds     = {};
-  float                local_padding    = 0;      // box padding, local units
-  bool                 exact            = false;  // closed-form intersection
-  const sdf_program*   program          = nullptr;
-  const grid_data*     grid             = nullptr;
-  const user_sdf_data* user             = nullptr;
+  object_kind                      kind             = object_kind::function;
+  int                              index            = invalidid;  // in scene
+  int                              material         = invalidid;
+  frame3f                          local_from_world = {};
+  frame3f                          world_from_local = {};
+  float                            distance_scale   = 1;
+  bbox3f                           local_bounds     = {};
+  bbox3f                           world_bounds     = {};
+  float                            local_padding    = 0;  // box padding, local
+  bool                             exact  = false;  // closed-form intersection
+  bool                             single = false;  // one primitive node
+  sdf_node                         shape  = {};     // that node, if single
+  std::shared_ptr<const sdf_field> field  = nullptr;  // function objects
+  const grid_data*                 grid   = nullptr;
+  const user_sdf_data*             user   = nullptr;
 };
 
 // Owner of an Embree device and scene. Move-only: the handles are released

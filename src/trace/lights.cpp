@@ -3,6 +3,7 @@
 #include "lights.h"
 
 #include "../math/sampling.h"
+#include "../sdf/sdf_primitives.h"
 
 namespace implicit {
 
@@ -58,11 +59,9 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
     if (object.material < 0 || object.material >= (int)scene.materials.size())
       continue;
     if (max(scene.materials[object.material].emission) <= 0) continue;
-    if (object.kind != object_kind::function ||
-        object.program->nodes.size() != 1)
-      continue;
+    if (object.kind != object_kind::function || !object.single) continue;
     if (!is_rigid(object.local_from_world)) continue;
-    auto& node   = object.program->nodes[0];
+    auto& node   = object.shape;
     auto  light  = trace_light{};
     light.object = i;
     if (node.type == sdf_type::box) {
@@ -105,7 +104,7 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
   switch (light.shape) {
     case light_shape::box: {
       auto& object = accel.objects[light.object];
-      auto  size   = object.program->nodes[0].size;
+      auto  size   = object.shape.size;
       auto  face   = sample_discrete(light.cdf, rel);
       auto  p      = transform_point(
                 object.world_from_local, box_face_point(size, face, ruv));
@@ -113,7 +112,7 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     }
     case light_shape::sphere: {
       auto& object = accel.objects[light.object];
-      auto  radius = object.program->nodes[0].radius;
+      auto  radius = object.shape.radius;
       auto  p =
           transform_point(object.world_from_local, sample_sphere(ruv) * radius);
       return normalize(p - position);
@@ -136,7 +135,7 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
 static float shape_light_pdf(
     const trace_object& object, const trace_light& light, const ray3f& world) {
   auto  ray  = transform_ray(object.local_from_world, world);
-  auto& node = object.program->nodes[0];
+  auto& node = object.shape;
   auto  pdf  = 0.0f;
   auto  add  = [&](float t, vec3f normal) {
     if (t <= 0) return;
@@ -158,13 +157,9 @@ static float shape_light_pdf(
       add(t, n);
     }
   } else {
-    auto a = dot(ray.d, ray.d), b = dot(ray.o, ray.d);
-    auto l    = ray.o - ray.d * (b / a);
-    auto disc = node.radius * node.radius - dot(l, l);
-    if (disc < 0) return 0;
-    auto h = std::sqrt(disc / a);
-    for (auto t : {-b / a - h, -b / a + h})
-      add(t, normalize(ray_point(ray, t)));
+    auto t0 = 0.0f, t1 = 0.0f;
+    if (!intersect_sphere(ray, node.radius, t0, t1)) return 0;
+    for (auto t : {t0, t1}) add(t, normalize(ray_point(ray, t)));
   }
   return pdf;
 }

@@ -1,0 +1,640 @@
+// # implicit: spatial pruning of SDF programs (implementation)
+//
+// ## Why pruning keeps the value
+//
+// Over the box, every node n has an interval [lo_n, hi_n] holding its values
+// (bottom-up: primitives from the centre value and their Lipschitz bound,
+// operators from their operands' intervals). Top-down, every kept node gets a
+// "cap" and a "floor": the root's value does not change if n's value is
+// replaced by any g with g = n where floor < n < cap, g >= cap where n >= cap
+// and g <= floor where n <= floor (the root has cap = +inf, floor = -inf).
+// An operand whose whole interval lies at or above its cap (or at or below
+// its floor) can thus be replaced by +inf (-inf), which removes it from its
+// operator. The rules, for an operator n with operands a, b (the same with a
+// and b swapped):
+//
+// - min(a, b): a gets cap min(cap_n, hi_b), floor floor_n. Where a >= hi_b,
+//   a >= b, so min(g, b) = b = min(a, b) for any g >= hi_b. Where
+//   a >= cap_n, min(a, b) and min(g, b) are both b if b < cap_n, and both
+//   >= cap_n otherwise: n keeps its cap. Where a <= floor_n, both minima
+//   are <= floor_n. So a with lo_a >= min(cap_n, hi_b) is dropped and n
+//   becomes b (a hard union drops an operand whose lower bound exceeds the
+//   upper bound of the other: blend 0 in the smooth rule below).
+// - max(a, b): the mirror image: a gets floor max(floor_n, lo_b), cap cap_n;
+//   a with hi_a <= max(floor_n, lo_b) is dropped.
+// - max(a, -b) (subtraction): a gets floor max(floor_n, -hi_b) (where
+//   a <= -hi_b <= -b the maximum is -b) and cap cap_n; -b gets floor
+//   max(floor_n, lo_a), so b gets cap -max(floor_n, lo_a) and floor -cap_n.
+//   b with -lo_b <= max(floor_n, lo_a) is dropped (n becomes a); a is kept
+//   even when it could go (n would become -b, for which there is no node).
+// - smooth_min(a, b, k) = min(a, b) - h^2 k / 4, h = max(k - |a - b|, 0) / k:
+//   where a >= b + k, h = 0 and the value is b, whatever a is above b + k.
+//   So a may get cap hi_b + k (no floor: values of a below it all matter):
+//   it is dropped when lo_a >= hi_b + k, i.e. when it lies farther than the
+//   blend radius above every value of the other operand. It may also get
+//   a cap T from cap_n: where a >= T, either b <= T - k, so a and any
+//   g >= T lie at least k above b and both smooth minima are b; or
+//   b > T - k, and then (the smooth minimum is monotone in each operand: its
+//   partial derivatives are h/2 and 1 - h/2) both smooth minima are at
+//   least f(T) = smooth_min(T, max(lo_b, T - k)), which is >= cap_n for
+//   T >= cap_n + k always, for T = cap_n when lo_b >= cap_n + k, and in
+//   between for T = lo_b + k - 2 sqrt(k (lo_b - cap_n)), where f(T) = cap_n
+//   (solving the polynomial; smooth_cap()). a gets the smaller of the two
+//   caps. Without the lower bound of b, each level of a chain of kept
+//   operands would loosen the cap by k.
+// - smooth_max(a, b, k) = -smooth_min(-a, -b, k): a gets the mirrored
+//   floor max(lo_b - k, -smooth_cap(-floor_n, -hi_b)) and is dropped when
+//   its hi is below it. Smooth subtraction smooth_max(a, -b, k) is the same
+//   with -b in [-hi_b, -lo_b]; b gets the negated floor of -b as its cap,
+//   and is dropped when -lo_b is below that floor.
+// - round (a - r): cap and floor move by r. transform (s a, s > 0): they are
+//   divided by s. onion (|a| - t) is not monotone: its operand gets none.
+//
+// Each rule replaces values only where the operator's value is unchanged (or
+// stays on the same side of n's own cap or floor), so by induction from the
+// root the pruned program equals the whole one at every point of the box.
+// Intervals are widened by a small relative margin against float rounding.
+
+#include "sdf_prune.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <memory>
+
+#include "sdf_primitives.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// PRUNING
+// -----------------------------------------------------------------------------
+
+// Relative widening of intervals against the rounding of the centre value
+// and of the Lipschitz radius.
+static constexpr float interval_margin = 1e-4f;
+
+// The cap that a smooth-min operand a inherits from its node's cap C when
+// the other operand is at least `lo_other` (see the proof above): the least
+// T with smooth_min(T, max(lo_other, T - k)) >= C.
+static float smooth_cap(float cap, float lo_other, float k) {
+  if (k <= 0) return cap;
+  auto d = lo_other - cap;
+  if (!(d > 0)) return cap + k;
+  if (d >= k) return cap;
+  return lo_other + k - 2 * std::sqrt(k * d);
+}
+
+sdf_program prune_sdf(const sdf_program& program, const bbox3f& box) {
+  auto range = vec2f{};
+  return prune_sdf(program, box, range);
+}
+
+sdf_program prune_sdf(
+    const sdf_program& program, const bbox3f& box, vec2f& range) {
+  auto& nodes = program.nodes;
+  auto  n     = (int)nodes.size();
+  range       = {-flt_inf, flt_inf};
+  if (n == 0) return program;
+  // Spaces, top-down, as in make_sdf_tape(): the centre and the ball radius
+  // in each transform's space.
+  auto centre  = center(box);
+  auto radius  = length(size(box)) * 0.5f;
+  auto space   = std::vector<int>(n, invalidid);
+  auto frames  = std::vector<frame3f>{};
+  auto stretch = std::vector<float>{};
+  for (auto i = n - 1; i >= 0; i--) {
+    auto& node  = nodes[i];
+    auto  inner = space[i];
+    if (node.type == sdf_type::op_transform) {
+      // The composed map stretches at most by the product of the stretches,
+      // 1 / frame_scale each (no power iteration per cell).
+      auto& frame = program.frames[node.frame];
+      auto  scale = program.frame_scales[node.frame];
+      auto  outer = inner < 0 ? 1.0f : stretch[inner];
+      frames.push_back(inner < 0 ? frame : frame * frames[inner]);
+      stretch.push_back(scale > 0 ? outer / scale : flt_inf);
+      inner = (int)frames.size() - 1;
+    }
+    if (node.left >= 0) space[node.left] = inner;
+    if (node.right >= 0) space[node.right] = inner;
+  }
+
+  // Intervals over the box, bottom-up.
+  auto lo = std::vector<float>(n), hi = std::vector<float>(n);
+  for (auto i = 0; i < n; i++) {
+    auto& node = nodes[i];
+    auto  l = node.left, r = node.right;
+    auto  k = std::max(node.blend, 0.0f);
+    switch (node.type) {
+      case sdf_type::box:
+      case sdf_type::bbox:
+      case sdf_type::sphere:
+      case sdf_type::torus:
+      case sdf_type::capped_cone:
+      case sdf_type::plane:
+      case sdf_type::capsule:
+      case sdf_type::cylinder:
+      case sdf_type::rounded_box:
+      case sdf_type::ellipsoid:
+      case sdf_type::octahedron: {
+        auto s = space[i];
+        auto q = s < 0 ? centre : transform_point(frames[s], centre);
+        auto v = eval_primitive(node, q);
+        auto d = radius * (s < 0 ? 1 : stretch[s]) * primitive_lipschitz(node);
+        auto m = interval_margin * (d + std::abs(v));
+        lo[i]  = v - d - m;
+        hi[i]  = v + d + m;
+        break;
+      }
+      case sdf_type::op_union:
+        lo[i] = std::min(lo[l], lo[r]);
+        hi[i] = std::min(hi[l], hi[r]);
+        break;
+      case sdf_type::op_intersection:
+        lo[i] = std::max(lo[l], lo[r]);
+        hi[i] = std::max(hi[l], hi[r]);
+        break;
+      case sdf_type::op_subtraction:
+        lo[i] = std::max(lo[l], -hi[r]);
+        hi[i] = std::max(hi[l], -lo[r]);
+        break;
+      // The smooth minimum and maximum are monotone in each operand
+      // (their partial derivatives are h/2 and 1 - h/2, both in [0, 1]), so
+      // their values over the box lie between their values at the ends of
+      // the operands' intervals.
+      case sdf_type::op_smooth_union:
+        lo[i] = smooth_min(lo[l], lo[r], k);
+        hi[i] = smooth_min(hi[l], hi[r], k);
+        break;
+      case sdf_type::op_smooth_intersection:
+        lo[i] = smooth_max(lo[l], lo[r], k);
+        hi[i] = smooth_max(hi[l], hi[r], k);
+        break;
+      case sdf_type::op_smooth_subtraction:
+        lo[i] = smooth_max(lo[l], -hi[r], k);
+        hi[i] = smooth_max(hi[l], -lo[r], k);
+        break;
+      case sdf_type::op_round:
+        lo[i] = lo[l] - node.radius;
+        hi[i] = hi[l] - node.radius;
+        break;
+      case sdf_type::op_onion: {
+        auto t = node.thickness;
+        if (lo[l] >= 0) {
+          lo[i] = lo[l] - t;
+          hi[i] = hi[l] - t;
+        } else if (hi[l] <= 0) {
+          lo[i] = -hi[l] - t;
+          hi[i] = -lo[l] - t;
+        } else {
+          lo[i] = -t;
+          hi[i] = std::max(-lo[l], hi[l]) - t;
+        }
+        break;
+      }
+      case sdf_type::op_transform: {
+        auto s = program.frame_scales[node.frame];
+        lo[i]  = lo[l] * s;
+        hi[i]  = hi[l] * s;
+        break;
+      }
+    }
+  }
+
+  range = {lo[n - 1], hi[n - 1]};
+
+  // Caps, floors and dropped operands, top-down (see the proof above).
+  auto cap       = std::vector<float>(n, flt_inf);
+  auto floor     = std::vector<float>(n, -flt_inf);
+  auto reached   = std::vector<char>(n, 0);
+  auto pass      = std::vector<int>(n, invalidid);  // n becomes this operand
+  reached[n - 1] = 1;
+  for (auto i = n - 1; i >= 0; i--) {
+    if (!reached[i]) continue;
+    auto& node = nodes[i];
+    auto  l = node.left, r = node.right;
+    auto  k    = std::max(node.blend, 0.0f);
+    auto  keep = [&](int operand, float c, float f) {
+      reached[operand] = 1;
+      cap[operand]     = c;
+      floor[operand]   = f;
+    };
+    // n becomes `operand`, which inherits n's cap and floor.
+    auto become = [&](int operand) {
+      pass[i] = operand;
+      keep(operand, cap[i], floor[i]);
+    };
+    switch (node.type) {
+      case sdf_type::box:
+      case sdf_type::bbox:
+      case sdf_type::sphere:
+      case sdf_type::torus:
+      case sdf_type::capped_cone:
+      case sdf_type::plane:
+      case sdf_type::capsule:
+      case sdf_type::cylinder:
+      case sdf_type::rounded_box:
+      case sdf_type::ellipsoid:
+      case sdf_type::octahedron: break;
+      case sdf_type::op_union:
+        if (lo[l] >= std::min(cap[i], hi[r])) {
+          become(r);
+        } else if (lo[r] >= std::min(cap[i], hi[l])) {
+          become(l);
+        } else {
+          keep(l, std::min(cap[i], hi[r]), floor[i]);
+          keep(r, std::min(cap[i], hi[l]), floor[i]);
+        }
+        break;
+      case sdf_type::op_intersection:
+        if (hi[l] <= std::max(floor[i], lo[r])) {
+          become(r);
+        } else if (hi[r] <= std::max(floor[i], lo[l])) {
+          become(l);
+        } else {
+          keep(l, cap[i], std::max(floor[i], lo[r]));
+          keep(r, cap[i], std::max(floor[i], lo[l]));
+        }
+        break;
+      case sdf_type::op_subtraction:
+        if (-lo[r] <= std::max(floor[i], lo[l])) {
+          become(l);
+        } else {
+          keep(l, cap[i], std::max(floor[i], -hi[r]));
+          keep(r, -std::max(floor[i], lo[l]), -cap[i]);
+        }
+        break;
+      case sdf_type::op_smooth_union: {
+        auto reach_l = smooth_cap(cap[i], lo[r], k);
+        auto reach_r = smooth_cap(cap[i], lo[l], k);
+        if (lo[l] >= std::min(hi[r] + k, reach_l)) {
+          become(r);
+        } else if (lo[r] >= std::min(hi[l] + k, reach_r)) {
+          become(l);
+        } else {
+          keep(l, std::min(hi[r] + k, reach_l), -flt_inf);
+          keep(r, std::min(hi[l] + k, reach_r), -flt_inf);
+        }
+        break;
+      }
+      case sdf_type::op_smooth_intersection: {
+        auto reach_l = -smooth_cap(-floor[i], -hi[r], k);
+        auto reach_r = -smooth_cap(-floor[i], -hi[l], k);
+        if (hi[l] <= std::max(lo[r] - k, reach_l)) {
+          become(r);
+        } else if (hi[r] <= std::max(lo[l] - k, reach_r)) {
+          become(l);
+        } else {
+          keep(l, flt_inf, std::max(lo[r] - k, reach_l));
+          keep(r, flt_inf, std::max(lo[l] - k, reach_r));
+        }
+        break;
+      }
+      case sdf_type::op_smooth_subtraction: {
+        // The operands are a and c = -b, c in [-hi_b, -lo_b].
+        auto reach_l = -smooth_cap(-floor[i], lo[r], k);
+        auto reach_c = -smooth_cap(-floor[i], -hi[l], k);
+        if (-lo[r] <= std::max(lo[l] - k, reach_c)) {
+          become(l);
+        } else {
+          keep(l, flt_inf, std::max(-hi[r] - k, reach_l));
+          keep(r, -std::max(lo[l] - k, reach_c), -flt_inf);
+        }
+        break;
+      }
+      case sdf_type::op_round:
+        keep(l, cap[i] + node.radius, floor[i] + node.radius);
+        break;
+      case sdf_type::op_onion: keep(l, flt_inf, -flt_inf); break;
+      case sdf_type::op_transform: {
+        auto s = program.frame_scales[node.frame];
+        if (s > 0) {
+          keep(l, cap[i] / s, floor[i] / s);
+        } else {
+          keep(l, flt_inf, -flt_inf);
+        }
+        break;
+      }
+    }
+  }
+
+  // Emit the kept nodes in their order (operands stay before users), each
+  // passed-through node replaced by what it became; a transform of a
+  // transform is merged into one map (the child's frame after the parent's)
+  // with the product of their distance factors.
+  auto target = std::vector<int>(n, invalidid);
+  for (auto i = 0; i < n; i++) target[i] = pass[i] >= 0 ? target[pass[i]] : i;
+  auto pruned = sdf_program{};
+  auto index  = std::vector<int>(n, invalidid);
+  for (auto i = 0; i < n; i++) {
+    if (!reached[i] || pass[i] >= 0) continue;
+    auto node = nodes[i];
+    if (node.left >= 0) node.left = index[target[node.left]];
+    if (node.right >= 0) node.right = index[target[node.right]];
+    if (node.type == sdf_type::op_transform) {
+      auto& frame = program.frames[node.frame];
+      auto  scale = program.frame_scales[node.frame];
+      auto& child = pruned.nodes[node.left];
+      if (child.type == sdf_type::op_transform) {
+        pruned.frames[child.frame] = pruned.frames[child.frame] * frame;
+        pruned.frame_scales[child.frame] *= scale;
+        index[i] = node.left;
+        continue;
+      }
+      pruned.frames.push_back(frame);
+      pruned.frame_scales.push_back(scale);
+      node.frame = (int)pruned.frames.size() - 1;
+    }
+    index[i] = add_node(pruned, node);
+  }
+  assert(index[target[n - 1]] == root_node(pruned));
+  return pruned;
+}
+
+// -----------------------------------------------------------------------------
+// UNION PARTS
+// -----------------------------------------------------------------------------
+
+// Copy the subtree of `root` into `part` (operands first) and return its new
+// root. Explicit stack; the copied nodes keep their relative order.
+static int copy_subtree(
+    const sdf_program& program, int root, sdf_program& part) {
+  auto members = std::vector<int>{};
+  auto stack   = std::vector<int>{root};
+  while (!stack.empty()) {
+    auto index = stack.back();
+    stack.pop_back();
+    members.push_back(index);
+    auto& node = program.nodes[index];
+    if (node.left >= 0) stack.push_back(node.left);
+    if (node.right >= 0) stack.push_back(node.right);
+  }
+  std::sort(members.begin(), members.end());
+  auto offset = (int)part.nodes.size();
+  auto remap  = [&](int index) {
+    auto it = std::lower_bound(members.begin(), members.end(), index);
+    return offset + (int)(it - members.begin());
+  };
+  for (auto index : members) {
+    auto node = program.nodes[index];
+    if (node.left >= 0) node.left = remap(node.left);
+    if (node.right >= 0) node.right = remap(node.right);
+    if (node.type == sdf_type::op_transform) {
+      part.frames.push_back(program.frames[node.frame]);
+      part.frame_scales.push_back(program.frame_scales[node.frame]);
+      node.frame = (int)part.frames.size() - 1;
+    }
+    part.nodes.push_back(node);
+  }
+  return root_node(part);
+}
+
+std::vector<sdf_program> split_sdf_union(const sdf_program& program) {
+  if (program.nodes.empty()) return {program};
+  // Walk down from the root through unions and transforms, composing the
+  // transforms' maps (the inner map after the outer) and distance factors.
+  struct operand {
+    int     node   = invalidid;
+    frame3f frame  = {};
+    float   scale  = 1;
+    bool    mapped = false;
+  };
+  auto operands = std::vector<operand>{};
+  auto stack    = std::vector<operand>{{root_node(program), {}, 1, false}};
+  auto unions   = 0;
+  while (!stack.empty()) {
+    auto item = stack.back();
+    stack.pop_back();
+    auto& node = program.nodes[item.node];
+    if (node.type == sdf_type::op_union) {
+      unions++;
+      // Right first on the stack, so operands come out left to right.
+      auto right = item, left = item;
+      right.node = node.right;
+      left.node  = node.left;
+      stack.push_back(right);
+      stack.push_back(left);
+    } else if (node.type == sdf_type::op_transform) {
+      auto& frame = program.frames[node.frame];
+      item.frame  = item.mapped ? frame * item.frame : frame;
+      item.scale *= program.frame_scales[node.frame];
+      item.mapped = true;
+      item.node   = node.left;
+      stack.push_back(item);
+    } else {
+      operands.push_back(item);
+    }
+  }
+  if (unions == 0) return {program};
+  // One program per operand, with its merged transform on top.
+  auto make_part = [&](const operand& item, sdf_program& part) {
+    auto root = copy_subtree(program, item.node, part);
+    if (!item.mapped) return root;
+    part.frames.push_back(item.frame);
+    part.frame_scales.push_back(item.scale);
+    auto node  = sdf_node{};
+    node.type  = sdf_type::op_transform;
+    node.left  = root;
+    node.frame = (int)part.frames.size() - 1;
+    return add_node(part, node);
+  };
+  auto parts = std::vector<sdf_program>{};
+  auto rest  = sdf_program{};
+  auto root  = invalidid;
+  for (auto& item : operands) {
+    auto part = sdf_program{};
+    make_part(item, part);
+    auto box = sdf_bounds(part);
+    if (!is_empty(box) && is_finite(box)) {
+      parts.push_back(std::move(part));
+      continue;
+    }
+    auto next = make_part(item, rest);
+    if (root != invalidid) {
+      auto node  = sdf_node{};
+      node.type  = sdf_type::op_union;
+      node.left  = root;
+      node.right = next;
+      next       = add_node(rest, node);
+    }
+    root = next;
+  }
+  if (!rest.nodes.empty()) parts.push_back(std::move(rest));
+  return parts;
+}
+
+// -----------------------------------------------------------------------------
+// FIELDS
+// -----------------------------------------------------------------------------
+
+// Corner `octant` (bit 0: x, 1: y, 2: z high) of a box split at its centre;
+// find_sdf_tape() computes the same midpoints.
+static bbox3f octant_box(const bbox3f& box, int octant) {
+  auto mid = (box.min + box.max) * 0.5f;
+  auto b   = box;
+  for (auto a = 0; a < 3; a++) {
+    if (octant & (1 << a)) {
+      at(b.min, a) = at(mid, a);
+    } else {
+      at(b.max, a) = at(mid, a);
+    }
+  }
+  return b;
+}
+
+// Octree depth for a program with `leaves` primitives: about one cell per
+// primitive, cbrt(leaves) per axis (cells near the surface only are split
+// that far: the others prune to a few nodes, or a constant, and stop), plus
+// `extra` levels, at most 9.
+static int field_depth(size_t leaves, int extra) {
+  auto cells = std::cbrt(std::max(1.0, (double)leaves));
+  return std::clamp((int)std::ceil(std::log2(cells)) + extra, 1, 9);
+}
+
+// Build the octree of `field` down to `max_depth`, its leaf steps within
+// about `max_bytes`.
+static void build_octree(sdf_field& field, const sdf_program& program,
+    const sdf_field_params& params, int max_depth, size_t max_bytes) {
+  // Depth first with an explicit stack, so that only the programs along one
+  // path (8 per level) are held at a time; the 8 children of a cell share
+  // their parent's pruned program and its budget: each child may use what
+  // its earlier siblings left, divided among it and the later ones (a cell
+  // that would not fit stays a leaf, with its larger program).
+  struct group {
+    size_t budget = 0;  // bytes for the 8 children's leaves
+    size_t start  = 0;  // bytes stored before the first child
+  };
+  struct pending {
+    int                                cell     = 0;
+    bbox3f                             box      = {};
+    int                                depth    = 0;
+    int                                octant   = 0;
+    std::shared_ptr<const sdf_program> program  = nullptr;
+    std::shared_ptr<const group>       siblings = nullptr;
+  };
+  // Pruned copies name their node in the whole program (sdf_node::origin),
+  // whose tape holds the nodes and maps for all leaves.
+  auto root = program;
+  for (auto i = 0; i < (int)root.nodes.size(); i++) root.nodes[i].origin = i;
+  auto stored = size_t{0};  // bytes of the leaf steps
+  auto stack  = std::vector<pending>{
+       {0, field.box, 0, 0, std::make_shared<const sdf_program>(std::move(root)),
+           std::make_shared<const group>(group{max_bytes * 8, 0})}};
+  field.cells.push_back({});
+  while (!stack.empty()) {
+    auto item = std::move(stack.back());
+    stack.pop_back();
+    auto used = stored - item.siblings->start;
+    auto left =
+        item.siblings->budget > used ? item.siblings->budget - used : size_t{0};
+    auto budget = left / (8 - item.octant);
+    auto range  = vec2f{};
+    auto pruned = prune_sdf(*item.program, item.box, range);
+    auto size   = pruned.nodes.size();
+    field.depth = std::max(field.depth, item.depth);
+    // Far from the surface: a constant bound (see sdf_cell).
+    auto far = length(item.box.max - item.box.min) * 0.25f;
+    if (range.x >= far || range.y <= -far) {
+      field.cells[item.cell].bound = range.x > 0 ? range.x : range.y;
+      continue;
+    }
+    // A leaf when small enough, deep enough, when its children would not
+    // fit its budget (they hold about 3 times its steps: operands near
+    // their boundaries are in several), or when pruning stopped working (a
+    // chain of roundings has nothing to drop: its cells would multiply
+    // copies of it).
+    auto leaf = (int)size <= params.leaf_nodes || item.depth >= max_depth ||
+                3 * size * sizeof(sdf_instr) > budget ||
+                (item.depth >= 3 && size >= item.program->nodes.size());
+    if (leaf) {
+      auto steps                   = make_sdf_instrs(pruned, field.full);
+      field.cells[item.cell].begin = (int)field.instrs.size();
+      field.cells[item.cell].count = (int)steps.size();
+      field.instrs.insert(field.instrs.end(), steps.begin(), steps.end());
+      stored += steps.size() * sizeof(sdf_instr);
+      continue;
+    }
+    auto children                   = (int)field.cells.size();
+    field.cells[item.cell].children = children;
+    field.cells.resize(field.cells.size() + 8);
+    auto shared   = std::make_shared<const sdf_program>(std::move(pruned));
+    auto siblings = std::make_shared<const group>(group{budget, stored});
+    for (auto octant = 7; octant >= 0; octant--)
+      stack.push_back({children + octant, octant_box(item.box, octant),
+          item.depth + 1, octant, shared, siblings});
+  }
+}
+
+// Default budget of the leaf steps: 4 KiB per node of the program, at least
+// 32 MiB and at most 1 GiB.
+static constexpr size_t field_min_bytes = size_t{32} << 20;
+static constexpr size_t field_max_bytes = size_t{1} << 30;
+
+sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
+    const sdf_field_params& params) {
+  auto field      = sdf_field{};
+  field.full      = make_sdf_tape(program);
+  auto count      = program.nodes.size();
+  auto primitives = size_t{0};
+  for (auto& node : program.nodes) primitives += is_primitive(node.type);
+  if ((int)count <= params.leaf_nodes || is_empty(box) || !is_finite(box))
+    return field;
+  // Cubic cells (a flat object would get flat cells, split for nothing
+  // along its thin axis): the root is the box grown to a cube.
+  auto half = max(box.max - box.min) * 0.5f;
+  field.box = {center(box) - half, center(box) + half};
+  auto max_depth =
+      params.max_depth >= 0 ? params.max_depth : field_depth(primitives, 1);
+  auto max_bytes = params.max_bytes > 0 ? params.max_bytes
+                                        : std::clamp(count * 16384,
+                                              field_min_bytes, field_max_bytes);
+  build_octree(field, program, params, max_depth, max_bytes);
+  return field;
+}
+
+int find_sdf_cell(const sdf_field& field, vec3f p) {
+  if (field.cells.empty() || !inside(field.box, p)) return invalidid;
+  auto cell = 0;
+  auto box  = field.box;
+  while (field.cells[cell].children >= 0) {
+    auto mid    = (box.min + box.max) * 0.5f;
+    auto octant = (p.x >= mid.x ? 1 : 0) | (p.y >= mid.y ? 2 : 0) |
+                  (p.z >= mid.z ? 4 : 0);
+    box  = octant_box(box, octant);
+    cell = field.cells[cell].children + octant;
+  }
+  return cell;
+}
+
+vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step) {
+  // One primitive in the object's space: its analytic gradient.
+  auto cell = find_sdf_cell(field, p);
+  if (cell >= 0 && field.cells[cell].count == 1) {
+    auto& instr = field.instrs[field.cells[cell].begin];
+    if (instr.space == invalidid) {
+      auto single   = sdf_tape{};
+      single.instrs = {sdf_instr{0, invalidid, 1, false}};
+      single.nodes  = {field.full.nodes[instr.node]};
+      return eval_sdf_gradient(single, p, step);
+    }
+  }
+  if (cell < 0 && field.full.instrs.size() == 1)
+    return eval_sdf_gradient(field.full, p, step);
+  return normalize(tetrahedral_gradient(
+      [&](vec3f q) { return eval_sdf(field, q); }, p, step));
+}
+
+size_t sdf_tape_bytes(const sdf_tape& tape) {
+  return sizeof(tape) + tape.instrs.size() * sizeof(sdf_instr) +
+         tape.nodes.size() * sizeof(sdf_node) +
+         tape.frames.size() * sizeof(frame3f) +
+         tape.spaces.size() * sizeof(int);
+}
+
+size_t sdf_field_bytes(const sdf_field& field) {
+  return sizeof(field) + field.cells.size() * sizeof(sdf_cell) +
+         sdf_tape_bytes(field.full) + field.instrs.size() * sizeof(sdf_instr);
+}
+
+}  // namespace implicit
