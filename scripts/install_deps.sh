@@ -8,7 +8,7 @@ packages=(
   nlohmann-json3-dev libstb-dev libopenexr-dev libtbb-dev
   libembree-dev libopenvdb-dev libpng-dev libjpeg-dev libnanovdb-dev libboost-iostreams-dev libcli11-dev
   libglfw3-dev libimgui-dev libgl-dev libgl1-mesa-dri libglx-mesa0 xvfb xauth
-  doctest-dev libbenchmark-dev clang libclang-rt-14-dev
+  doctest-dev libbenchmark-dev clang libclang-rt-14-dev libopenmpi-dev openmpi-bin
   pybind11-dev python3-dev python3-numpy python3-pytest
 )
 

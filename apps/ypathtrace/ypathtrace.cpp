@@ -14,6 +14,7 @@
 #include <memory>
 #include <string>
 
+#include "distributed.h"
 #include "image/image_io.h"
 #include "scene/scene_io.h"
 #include "trace/render.h"
@@ -170,19 +171,12 @@ static void validate_options(app_options& opts) {
     throw CLI::ValidationError(
         "--output", "unsupported image format \"" + opts.output +
                         "\" (use .png, .jpg, .hdr or .exr)");
+  // Under mpirun only rank 0 writes; other machines may lack the folder.
   try {
-    check_output_directory(opts.output);
+    if (is_primary_process()) check_output_directory(opts.output);
   } catch (const io_error& error) {
     throw CLI::ValidationError("--output", error.what());
   }
-}
-
-// Name of a batch image: out.png -> out-s0016.png.
-static std::string batch_filename(const std::string& output, int samples) {
-  auto dot    = output.find_last_of('.');
-  auto number = std::to_string(samples);
-  while (number.size() < 4) number = "0" + number;
-  return output.substr(0, dot) + "-s" + number + output.substr(dot);
 }
 
 // -----------------------------------------------------------------------------
@@ -269,13 +263,19 @@ int main(int argc, char** argv) {
           "ypathtrace"};
   auto opts = app_options{};
   add_options(app, opts);
+  auto dist = distributed_options{};  // mpirun and --turntable
+  add_distributed_options(app, dist);
   try {
     app.parse(argc, argv);
     validate_options(opts);
+    if (opts.interactive && needs_distributed(dist))
+      throw CLI::ValidationError(
+          "--interactive", "the viewer runs without mpirun and --turntable");
   } catch (const CLI::CallForHelp&) {
-    std::printf("%s", app.help().c_str());
+    if (is_primary_process()) std::printf("%s", app.help().c_str());
     return 0;
   } catch (const CLI::ParseError& error) {
+    if (!is_primary_process()) return 2;  // rank 0 prints it
     std::fprintf(stderr, "ypathtrace: error: %s\n\n%s", error.what(),
         app.help().c_str());
     return 2;
@@ -285,6 +285,12 @@ int main(int argc, char** argv) {
     if (opts.threads > 0)
       control = std::make_unique<tbb::global_control>(
           tbb::global_control::max_allowed_parallelism, opts.threads);
+    if (needs_distributed(dist)) {
+      dist.scene = opts.scene, dist.output = opts.output;
+      dist.camera = opts.camera, dist.params = opts.params;
+      dist.savebatch = opts.savebatch, dist.quiet = opts.quiet;
+      return run_distributed(dist);
+    }
     return run(opts);
   } catch (const std::exception& error) {
     std::fprintf(stderr, "ypathtrace: error: %s\n", error.what());

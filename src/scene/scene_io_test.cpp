@@ -937,8 +937,9 @@ TEST_CASE("scene_io errors: nested operators") {
     deep = R"({"type": "round", "radius": 0.01, "operand": )" + deep + "}";
   deep.insert(1, R"("name": "deep", "material": 0, )");
   auto error = scene_error(small_scene(R"("sdfunctions": [)" + deep + "]"));
-  CHECK(starts_with(error, "scene.json: sdfunctions[0].operand."));
-  CHECK(error.find(": nested deeper than 256 levels") != std::string::npos);
+  CHECK(starts_with(error, "scene.json: sdfunctions[0] (\"deep\").operand."));
+  CHECK(error.find(": sdfunctions nested deeper than 64 levels") !=
+        std::string::npos);
 }
 
 TEST_CASE("scene_io errors: frames") {
