@@ -6,6 +6,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -87,11 +88,13 @@ struct sdf_function_data {
   int         material         = invalidid;
 };
 
-// A grid loaded from a file (the seed's `volumes`).
+// A grid loaded from a file (the seed's `volumes`); null until loaded. Shared
+// (never copied) with the trace objects of its instances, so that the accel
+// owns what it traces and the scene may move or go away.
 struct volume_data {
-  std::string name = "";
-  std::string uri  = "";
-  grid_data   grid = {};
+  std::string                      name = "";
+  std::string                      uri  = "";
+  std::shared_ptr<const grid_data> grid = nullptr;
 };
 
 // A placed grid (the seed's `vol_instances`): `scale` multiplies the grid's

@@ -9,7 +9,9 @@
 // once, not after loading a large grid.
 //
 // `sdfunctions` by type. Seed types keep the seed's keys and meanings; all
-// sizes and radii must be > 0 unless noted.
+// sizes and radii must be > 0 unless noted. The primitives' keys, fields and
+// ranges are read from their table (sdf_primitive_table.h, sdf_primitives.h);
+// this summary must agree with it.
 //
 //   type          JSON keys                              sdf_node fields
 //   box           whd (full size, corner at origin)      size
@@ -56,6 +58,7 @@
 
 #include "../image/image_io.h"
 #include "../sdf/sdf_grid_io.h"
+#include "../sdf/sdf_primitives.h"
 #include "../util/error.h"
 #include "json_check.h"
 
@@ -67,9 +70,7 @@ namespace implicit {
 
 // Shortest readable form of a number for messages.
 static std::string format_number(float value) {
-  auto stream = std::ostringstream{};
-  stream << value;
-  return stream.str();
+  return format_param_value(value);
 }
 
 static std::string format_vec3(vec3f value) {
@@ -202,20 +203,15 @@ static int read_material_texture(const json_place& place, const json& js,
 // from overflowing the stack.
 static constexpr int max_sdf_depth = 64;
 
-// JSON parameter keys of each type (see the table at the top).
+// JSON parameter keys of each type (see the table at the top; primitives
+// list theirs in sdf_primitives.h).
 static std::vector<std::string> sdf_parameter_keys(sdf_type type) {
   switch (type) {
-    case sdf_type::box: return {"whd"};
-    case sdf_type::bbox: return {"whd", "thickness"};
-    case sdf_type::sphere: return {"radius"};
-    case sdf_type::torus: return {"r1", "r2"};
-    case sdf_type::capped_cone: return {"height", "r1", "r2"};
-    case sdf_type::plane: return {};
-    case sdf_type::capsule: return {"height", "radius"};
-    case sdf_type::cylinder: return {"height", "radius"};
-    case sdf_type::rounded_box: return {"whd", "radius"};
-    case sdf_type::ellipsoid: return {"radii"};
-    case sdf_type::octahedron: return {"radius"};
+    IMPLICIT_SDF_PRIMITIVE_CASES {
+      auto keys = std::vector<std::string>{};
+      for (auto& param : primitive_params(type)) keys.push_back(param.key);
+      return keys;
+    }
     case sdf_type::op_union:
     case sdf_type::op_intersection:
     case sdf_type::op_subtraction: return {"operands"};
@@ -247,13 +243,37 @@ static float read_non_negative_parameter(
   return value;
 }
 
-// A required vec3 parameter that must be > 0 in every component.
-static vec3f read_positive_size(
-    const json_place& place, const json& js, const std::string& key) {
-  auto value = vec3f{};
-  read_json_required(place, js, key, value, "missing required parameter");
-  check_positive(place, key, value);
-  return value;
+// Read the parameters of a primitive node, in the order of its table entry,
+// then check them together.
+static void parse_primitive_params(
+    const json_place& place, const json& js, sdf_node& node) {
+  for (auto& param : primitive_params(node.type)) {
+    auto positive = param.range == sdf_param_range::positive;
+    auto read     = [&] {
+      return positive ? read_positive_parameter(place, js, param.key)
+                          : read_non_negative_parameter(place, js, param.key);
+    };
+    switch (param.field) {
+      case sdf_param_field::size: {
+        auto size = vec3f{};
+        read_json_required(
+            place, js, param.key, size, "missing required parameter");
+        if (positive) {
+          check_positive(place, param.key, size);
+        } else {
+          check_non_negative(place, param.key, size);
+        }
+        node.size = size;
+        break;
+      }
+      case sdf_param_field::radius: node.radius = read(); break;
+      case sdf_param_field::radius2: node.radius2 = read(); break;
+      case sdf_param_field::height: node.height = read(); break;
+      case sdf_param_field::thickness: node.thickness = read(); break;
+    }
+  }
+  auto problem = check_primitive(node);
+  if (problem.key) throw_json_error(place, problem.key, problem.problem);
 }
 
 static int parse_sdf_shape(const json_place& place, const json& js,
@@ -336,48 +356,9 @@ static int parse_sdf_shape(const json_place& place, const json& js,
   auto node = sdf_node{};
   node.type = type;
   switch (type) {
-    case sdf_type::box: node.size = read_positive_size(place, js, "whd"); break;
-    case sdf_type::bbox:
-      node.size      = read_positive_size(place, js, "whd");
-      node.thickness = read_positive_parameter(place, js, "thickness");
-      break;
-    case sdf_type::sphere:
-      node.radius = read_positive_parameter(place, js, "radius");
-      break;
-    case sdf_type::torus:
-      node.radius  = read_positive_parameter(place, js, "r1");
-      node.radius2 = read_positive_parameter(place, js, "r2");
-      break;
-    case sdf_type::capped_cone:
-      // A zero radius is a pointed cone, so only both zero is degenerate.
-      node.height  = read_positive_parameter(place, js, "height");
-      node.radius  = read_non_negative_parameter(place, js, "r1");
-      node.radius2 = read_non_negative_parameter(place, js, "r2");
-      if (node.radius == 0 && node.radius2 == 0)
-        throw_json_error(place, "r2", "r1 and r2 cannot both be 0");
-      break;
-    case sdf_type::plane: break;
-    case sdf_type::capsule:
-    case sdf_type::cylinder:
-      node.height = read_positive_parameter(place, js, "height");
-      node.radius = read_positive_parameter(place, js, "radius");
-      break;
-    case sdf_type::rounded_box:
-      node.size   = read_positive_size(place, js, "whd");
-      node.radius = read_positive_parameter(place, js, "radius");
-      // The rounding is carved out of the half sizes.
-      if (node.radius > min(node.size))
-        throw_json_error(place, "radius",
-            "must be <= the smallest half size " +
-                format_number(min(node.size)) + ", found " +
-                format_number(node.radius));
-      break;
-    case sdf_type::ellipsoid:
-      node.size = read_positive_size(place, js, "radii");
-      break;
-    case sdf_type::octahedron:
-      node.radius = read_positive_parameter(place, js, "radius");
-      break;
+    IMPLICIT_SDF_PRIMITIVE_CASES
+    parse_primitive_params(place, js, node);
+    break;
     case sdf_type::op_union:
     case sdf_type::op_intersection:
     case sdf_type::op_subtraction:
@@ -686,8 +667,8 @@ scene_data parse_scene(const std::string& text, const std::string& filename,
     auto& volume = scene.volumes[i];
     auto  path   = (directory / volume.uri).string();
     try {
-      volume.grid =
-          load_grid(path, grid_format_from_uri(volume.uri, volume_binary[i]));
+      volume.grid = std::make_shared<const grid_data>(
+          load_grid(path, grid_format_from_uri(volume.uri, volume_binary[i])));
     } catch (const io_error& error) {
       throw_json_error(volume_places[i], "uri", error.what());
     }

@@ -596,10 +596,12 @@ TEST_CASE("scene_io seed scenes") {
       auto scene = load_scene(filename, warnings);
       CHECK(warnings.size() == 2);
       REQUIRE(scene.volumes.size() == 2);
-      auto& bunny = scene.volumes[1].grid;
+      REQUIRE(scene.volumes[1].grid);
+      auto& bunny = *scene.volumes[1].grid;
       CHECK(bunny.dims == vec3i{84, 85, 65});
       CHECK(bunny.values.size() == (size_t)84 * 85 * 65);
-      CHECK(!scene.volumes[0].grid.values.empty());
+      REQUIRE(scene.volumes[0].grid);
+      CHECK(!scene.volumes[0].grid->values.empty());
       REQUIRE(scene.textures.size() == 1);
       CHECK(scene.textures[0].image.width * scene.textures[0].image.height > 0);
     } catch (const io_error& error) {
@@ -1153,4 +1155,59 @@ TEST_CASE("scene_io large sdfunctions: long operand lists, deep nesting") {
   auto error = scene_error(small_scene(R"("sdfunctions": [)" + deep + "]"));
   CHECK(starts_with(error, "scene.json: sdfunctions[0].operand."));
   CHECK(error.find(": nested deeper than 256 levels") != std::string::npos);
+}
+
+// Walks the primitive table: each primitive loads by its JSON name with its
+// parameters into its fields, and a missing parameter is reported by key.
+TEST_CASE("scene_io primitive table: every primitive and parameter") {
+  for (auto t = 0; t < (int)sdf_type::op_union; t++) {
+    auto type = (sdf_type)t;
+    auto name = sdf_type_names[t];
+    CAPTURE(name);
+    auto js        = nlohmann::json::object();
+    js["type"]     = name;
+    js["material"] = 0;
+    auto expected  = sdf_node{};
+    expected.type  = type;
+    auto k         = 0;
+    for (auto& param : primitive_params(type)) {
+      // Values that pass every check: sizes above the other parameters.
+      auto value = 0.25f + 0.125f * (float)k++;
+      switch (param.field) {
+        case sdf_param_field::size:
+          expected.size = vec3f{1, 1.25f, 1.5f};
+          js[param.key] = {1, 1.25f, 1.5f};
+          break;
+        case sdf_param_field::radius: expected.radius = value; break;
+        case sdf_param_field::radius2: expected.radius2 = value; break;
+        case sdf_param_field::height: expected.height = value; break;
+        case sdf_param_field::thickness: expected.thickness = value; break;
+      }
+      if (param.field != sdf_param_field::size) js[param.key] = value;
+    }
+    auto sdf = parse_sdfunction_text(js.dump());
+    REQUIRE(sdf.program.nodes.size() == 1);
+    auto& node = sdf.program.nodes[0];
+    CHECK(node.type == type);
+    CHECK(node.size == expected.size);
+    CHECK(node.radius == expected.radius);
+    CHECK(node.radius2 == expected.radius2);
+    CHECK(node.height == expected.height);
+    CHECK(node.thickness == expected.thickness);
+    for (auto& param : primitive_params(type)) {
+      auto missing = js;
+      missing.erase(param.key);
+      CHECK(scene_error(
+                small_scene(R"("sdfunctions": [)" + missing.dump() + "]")) ==
+            "scene.json: sdfunctions[0]." + std::string{param.key} +
+                ": missing required parameter");
+    }
+    // A key of no parameter is refused for this type.
+    auto unknown       = js;
+    unknown["unknown"] = 1;
+    auto message =
+        scene_error(small_scene(R"("sdfunctions": [)" + unknown.dump() + "]"));
+    CHECK(message.find("sdfunctions[0].unknown: unknown key") !=
+          std::string::npos);
+  }
 }

@@ -5,15 +5,35 @@
 // exact Euclidean distances (1-Lipschitz) unless noted. The seed's six types
 // keep their exact conventions: `box` has its corner at the origin and full
 // size, `bbox` is centred with half sizes, `capped_cone` takes a half height.
+//
+// Each primitive of sdf_primitive_table.h has one block here: its formula,
+// its JSON parameters, and its evaluation, bounds, Lipschitz factor and
+// parameter checks on an sdf_node.
 #pragma once
 
+#include <sstream>
+
 #include "../math/math.h"
+#include "sdf_program.h"
 
 namespace implicit {
 
 // -----------------------------------------------------------------------------
-// PRIMITIVES (local space, all 1-Lipschitz)
+// PRIMITIVES (local space)
 // -----------------------------------------------------------------------------
+
+// Shortest readable form of a number for messages.
+inline std::string format_param_value(float value) {
+  auto stream = std::ostringstream{};
+  stream << value;
+  return stream.str();
+}
+
+// Most primitives have no checks across parameters.
+inline sdf_param_problem sdf_no_problem(const sdf_node&) { return {}; }
+
+// A box centred at the origin with half sizes `half`.
+inline bbox3f centered_bounds(vec3f half) { return {-half, half}; }
 
 // Box centred at the origin with half sizes `half`.
 inline float sd_centered_box(vec3f p, vec3f half) {
@@ -24,6 +44,14 @@ inline float sd_centered_box(vec3f p, vec3f half) {
 // Seed `box`: full size `whd`, corner at the local origin, occupies [0,whd].
 inline float sd_box(vec3f p, vec3f whd) {
   return sd_centered_box(p - whd * 0.5f, whd * 0.5f);
+}
+inline constexpr auto sdf_params_box = std::array<sdf_param, 1>{
+    {{"whd", sdf_param_field::size, sdf_param_range::positive}}};
+inline float  eval_box(const sdf_node& n, vec3f p) { return sd_box(p, n.size); }
+inline bbox3f bounds_box(const sdf_node& n) { return {{0, 0, 0}, n.size}; }
+inline float  lipschitz_box(const sdf_node&) { return 1; }
+inline sdf_param_problem check_box(const sdf_node& n) {
+  return sdf_no_problem(n);
 }
 
 // Seed `bbox`: box frame centred at the origin, half sizes `half`; its bars
@@ -37,13 +65,50 @@ inline float sd_box_frame(vec3f p, vec3f half, float thickness) {
   return std::min(
       std::min(t({q.x, r.y, r.z}), t({r.x, q.y, r.z})), t({r.x, r.y, q.z}));
 }
+inline constexpr auto sdf_params_bbox = std::array<sdf_param, 2>{
+    {{"whd", sdf_param_field::size, sdf_param_range::positive},
+        {"thickness", sdf_param_field::thickness, sdf_param_range::positive}}};
+inline float eval_bbox(const sdf_node& n, vec3f p) {
+  return sd_box_frame(p, n.size, n.thickness);
+}
+inline bbox3f bounds_bbox(const sdf_node& n) { return centered_bounds(n.size); }
+inline float  lipschitz_bbox(const sdf_node&) { return 1; }
+inline sdf_param_problem check_bbox(const sdf_node& n) {
+  return sdf_no_problem(n);
+}
 
 inline float sd_sphere(vec3f p, float radius) { return length(p) - radius; }
+inline constexpr auto sdf_params_sphere = std::array<sdf_param, 1>{
+    {{"radius", sdf_param_field::radius, sdf_param_range::positive}}};
+inline float eval_sphere(const sdf_node& n, vec3f p) {
+  return sd_sphere(p, n.radius);
+}
+inline bbox3f bounds_sphere(const sdf_node& n) {
+  return centered_bounds(vec3f{1, 1, 1} * n.radius);
+}
+inline float             lipschitz_sphere(const sdf_node&) { return 1; }
+inline sdf_param_problem check_sphere(const sdf_node& n) {
+  return sdf_no_problem(n);
+}
 
 // Torus about the local y axis: ring radius `r1`, tube radius `r2`.
 inline float sd_torus(vec3f p, float r1, float r2) {
   auto q = vec2f{length(vec2f{p.x, p.z}) - r1, p.y};
   return length(q) - r2;
+}
+inline constexpr auto sdf_params_torus = std::array<sdf_param, 2>{
+    {{"r1", sdf_param_field::radius, sdf_param_range::positive},
+        {"r2", sdf_param_field::radius2, sdf_param_range::positive}}};
+inline float eval_torus(const sdf_node& n, vec3f p) {
+  return sd_torus(p, n.radius, n.radius2);
+}
+inline bbox3f bounds_torus(const sdf_node& n) {
+  auto r = n.radius + n.radius2;
+  return centered_bounds({r, n.radius2, r});
+}
+inline float             lipschitz_torus(const sdf_node&) { return 1; }
+inline sdf_param_problem check_torus(const sdf_node& n) {
+  return sdf_no_problem(n);
 }
 
 // Seed `capped_cone`: axis y, spans y in [-height, height], radius r1 at the
@@ -60,14 +125,54 @@ inline float sd_capped_cone(vec3f p, float height, float r1, float r2) {
   auto s = (cb.x < 0 && ca.y < 0) ? -1.0f : 1.0f;
   return s * std::sqrt(std::min(dot(ca, ca), dot(cb, cb)));
 }
+inline constexpr auto sdf_params_capped_cone = std::array<sdf_param, 3>{
+    {{"height", sdf_param_field::height, sdf_param_range::positive},
+        {"r1", sdf_param_field::radius, sdf_param_range::non_negative},
+        {"r2", sdf_param_field::radius2, sdf_param_range::non_negative}}};
+inline float eval_capped_cone(const sdf_node& n, vec3f p) {
+  return sd_capped_cone(p, n.height, n.radius, n.radius2);
+}
+inline bbox3f bounds_capped_cone(const sdf_node& n) {
+  auto r = std::max(n.radius, n.radius2);
+  return centered_bounds({r, n.height, r});
+}
+inline float lipschitz_capped_cone(const sdf_node&) { return 1; }
+// A zero radius is a pointed cone, so only both zero is degenerate.
+inline sdf_param_problem check_capped_cone(const sdf_node& n) {
+  if (n.radius == 0 && n.radius2 == 0)
+    return {"r2", "r1 and r2 cannot both be 0"};
+  return {};
+}
 
 // Plane y = 0 with normal +y.
-inline float sd_plane(vec3f p) { return p.y; }
+inline float          sd_plane(vec3f p) { return p.y; }
+inline constexpr auto sdf_params_plane = std::array<sdf_param, 0>{};
+inline float  eval_plane(const sdf_node&, vec3f p) { return sd_plane(p); }
+inline bbox3f bounds_plane(const sdf_node&) {
+  return {{-flt_inf, 0, -flt_inf}, {flt_inf, 0, flt_inf}};
+}
+inline float             lipschitz_plane(const sdf_node&) { return 1; }
+inline sdf_param_problem check_plane(const sdf_node& n) {
+  return sdf_no_problem(n);
+}
 
 // Capsule along y between (0,-height,0) and (0,height,0).
 inline float sd_capsule(vec3f p, float height, float radius) {
   auto y = clamp(p.y, -height, height);
   return length(vec3f{p.x, p.y - y, p.z}) - radius;
+}
+inline constexpr auto sdf_params_capsule = std::array<sdf_param, 2>{
+    {{"height", sdf_param_field::height, sdf_param_range::positive},
+        {"radius", sdf_param_field::radius, sdf_param_range::positive}}};
+inline float eval_capsule(const sdf_node& n, vec3f p) {
+  return sd_capsule(p, n.height, n.radius);
+}
+inline bbox3f bounds_capsule(const sdf_node& n) {
+  return centered_bounds({n.radius, n.height + n.radius, n.radius});
+}
+inline float             lipschitz_capsule(const sdf_node&) { return 1; }
+inline sdf_param_problem check_capsule(const sdf_node& n) {
+  return sdf_no_problem(n);
 }
 
 // Capped cylinder along y, half height `height`.
@@ -75,21 +180,69 @@ inline float sd_cylinder(vec3f p, float height, float radius) {
   auto d = vec2f{length(vec2f{p.x, p.z}) - radius, std::abs(p.y) - height};
   return std::min(std::max(d.x, d.y), 0.0f) + length(max(d, 0.0f));
 }
+inline constexpr auto sdf_params_cylinder = std::array<sdf_param, 2>{
+    {{"height", sdf_param_field::height, sdf_param_range::positive},
+        {"radius", sdf_param_field::radius, sdf_param_range::positive}}};
+inline float eval_cylinder(const sdf_node& n, vec3f p) {
+  return sd_cylinder(p, n.height, n.radius);
+}
+inline bbox3f bounds_cylinder(const sdf_node& n) {
+  return centered_bounds({n.radius, n.height, n.radius});
+}
+inline float             lipschitz_cylinder(const sdf_node&) { return 1; }
+inline sdf_param_problem check_cylinder(const sdf_node& n) {
+  return sdf_no_problem(n);
+}
 
 // Box with half sizes `half` whose edges are rounded by `radius` (the radius
 // is inside the half sizes).
 inline float sd_rounded_box(vec3f p, vec3f half, float radius) {
   return sd_centered_box(p, half - radius) - radius;
 }
+inline constexpr auto sdf_params_rounded_box = std::array<sdf_param, 2>{
+    {{"whd", sdf_param_field::size, sdf_param_range::positive},
+        {"radius", sdf_param_field::radius, sdf_param_range::positive}}};
+inline float eval_rounded_box(const sdf_node& n, vec3f p) {
+  return sd_rounded_box(p, n.size, n.radius);
+}
+inline bbox3f bounds_rounded_box(const sdf_node& n) {
+  return centered_bounds(n.size);
+}
+inline float lipschitz_rounded_box(const sdf_node&) { return 1; }
+// The rounding is carved out of the half sizes.
+inline sdf_param_problem check_rounded_box(const sdf_node& n) {
+  if (n.radius > min(n.size))
+    return {"radius", "must be <= the smallest half size " +
+                          format_param_value(min(n.size)) + ", found " +
+                          format_param_value(n.radius)};
+  return {};
+}
 
 // Ellipsoid with semi-axes `radii`. Not exact: IQ's bound k0*(k0-1)/k1, which
-// is close to the distance near the surface; its Lipschitz factor is stated in
-// sdf_lipschitz().
+// is close to the distance near the surface; its Lipschitz factor is
+// lipschitz_ellipsoid().
 inline float sd_ellipsoid(vec3f p, vec3f radii) {
   auto k0 = length(p / radii);
   auto k1 = length(p / (radii * radii));
   if (k1 == 0) return -min(radii);
   return k0 * (k0 - 1) / k1;
+}
+inline constexpr auto sdf_params_ellipsoid = std::array<sdf_param, 1>{
+    {{"radii", sdf_param_field::size, sdf_param_range::positive}}};
+inline float eval_ellipsoid(const sdf_node& n, vec3f p) {
+  return sd_ellipsoid(p, n.size);
+}
+inline bbox3f bounds_ellipsoid(const sdf_node& n) {
+  return centered_bounds(n.size);
+}
+// IQ's bound k0(k0-1)/k1 is steeper than 1 away from the surface by at most
+// the axis ratio.
+inline float lipschitz_ellipsoid(const sdf_node& n) {
+  auto lo = min(n.size), hi = max(n.size);
+  return lo > 0 ? hi / lo : 1;
+}
+inline sdf_param_problem check_ellipsoid(const sdf_node& n) {
+  return sdf_no_problem(n);
 }
 
 // Regular octahedron |x|+|y|+|z| = size (exact version).
@@ -107,6 +260,18 @@ inline float sd_octahedron(vec3f p, float size) {
     return m * 0.57735027f;
   auto k = clamp(0.5f * (q.z - q.y + size), 0.0f, size);
   return length(vec3f{q.x, q.y - size + k, q.z - k});
+}
+inline constexpr auto sdf_params_octahedron = std::array<sdf_param, 1>{
+    {{"radius", sdf_param_field::radius, sdf_param_range::positive}}};
+inline float eval_octahedron(const sdf_node& n, vec3f p) {
+  return sd_octahedron(p, n.radius);
+}
+inline bbox3f bounds_octahedron(const sdf_node& n) {
+  return centered_bounds(vec3f{1, 1, 1} * n.radius);
+}
+inline float             lipschitz_octahedron(const sdf_node&) { return 1; }
+inline sdf_param_problem check_octahedron(const sdf_node& n) {
+  return sdf_no_problem(n);
 }
 
 // -----------------------------------------------------------------------------

@@ -63,17 +63,7 @@ sdf_program make_primitive_program(const sdf_node& node) {
 // Number of operands of a node (0 for primitives).
 static int operand_count(sdf_type type) {
   switch (type) {
-    case sdf_type::box:
-    case sdf_type::bbox:
-    case sdf_type::sphere:
-    case sdf_type::torus:
-    case sdf_type::capped_cone:
-    case sdf_type::plane:
-    case sdf_type::capsule:
-    case sdf_type::cylinder:
-    case sdf_type::rounded_box:
-    case sdf_type::ellipsoid:
-    case sdf_type::octahedron: return 0;
+    IMPLICIT_SDF_PRIMITIVE_CASES return 0;
     case sdf_type::op_round:
     case sdf_type::op_onion:
     case sdf_type::op_transform: return 1;
@@ -208,20 +198,10 @@ std::vector<sdf_instr> make_sdf_instrs(
 // -----------------------------------------------------------------------------
 
 float eval_primitive(const sdf_node& node, vec3f p) {
+#define IMPLICIT_SDF_EVAL(id, name) \
+  case sdf_type::id: return eval_##id(node, p);
   switch (node.type) {
-    case sdf_type::box: return sd_box(p, node.size);
-    case sdf_type::bbox: return sd_box_frame(p, node.size, node.thickness);
-    case sdf_type::sphere: return sd_sphere(p, node.radius);
-    case sdf_type::torus: return sd_torus(p, node.radius, node.radius2);
-    case sdf_type::capped_cone:
-      return sd_capped_cone(p, node.height, node.radius, node.radius2);
-    case sdf_type::plane: return sd_plane(p);
-    case sdf_type::capsule: return sd_capsule(p, node.height, node.radius);
-    case sdf_type::cylinder: return sd_cylinder(p, node.height, node.radius);
-    case sdf_type::rounded_box:
-      return sd_rounded_box(p, node.size, node.radius);
-    case sdf_type::ellipsoid: return sd_ellipsoid(p, node.size);
-    case sdf_type::octahedron: return sd_octahedron(p, node.radius);
+    IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_EVAL)
     case sdf_type::op_union:
     case sdf_type::op_intersection:
     case sdf_type::op_subtraction:
@@ -232,6 +212,7 @@ float eval_primitive(const sdf_node& node, vec3f p) {
     case sdf_type::op_onion:
     case sdf_type::op_transform: break;
   }
+#undef IMPLICIT_SDF_EVAL
   assert(false && "eval_primitive on an operator");
   return flt_max;
 }
@@ -260,24 +241,14 @@ float eval_sdf(const sdf_tape& pool, const sdf_instr* begin,
       stack[top - 1] = op(a, b);
     };
     switch (node.type) {
-      case sdf_type::box:
-      case sdf_type::bbox:
-      case sdf_type::sphere:
-      case sdf_type::torus:
-      case sdf_type::capped_cone:
-      case sdf_type::plane:
-      case sdf_type::capsule:
-      case sdf_type::cylinder:
-      case sdf_type::rounded_box:
-      case sdf_type::ellipsoid:
-      case sdf_type::octahedron:
-        if (instr.space != space) {
-          space = instr.space;
-          q     = space < 0 ? p : transform_point(tape.frames[space], p);
-        }
-        assert(top < sdf_stack_size);
-        stack[top++] = eval_primitive(node, q);
-        break;
+      IMPLICIT_SDF_PRIMITIVE_CASES
+      if (instr.space != space) {
+        space = instr.space;
+        q     = space < 0 ? p : transform_point(tape.frames[space], p);
+      }
+      assert(top < sdf_stack_size);
+      stack[top++] = eval_primitive(node, q);
+      break;
       case sdf_type::op_union:
         binary([](float a, float b) { return std::min(a, b); });
         break;
@@ -379,28 +350,10 @@ vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step) {
 // -----------------------------------------------------------------------------
 
 bbox3f primitive_bounds(const sdf_node& node) {
-  auto centered = [](vec3f half) { return bbox3f{-half, half}; };
+#define IMPLICIT_SDF_BOUNDS(id, name) \
+  case sdf_type::id: return bounds_##id(node);
   switch (node.type) {
-    case sdf_type::box: return {{0, 0, 0}, node.size};
-    case sdf_type::bbox: return centered(node.size);
-    case sdf_type::sphere: return centered(vec3f{1, 1, 1} * node.radius);
-    case sdf_type::torus: {
-      auto r = node.radius + node.radius2;
-      return centered({r, node.radius2, r});
-    }
-    case sdf_type::capped_cone: {
-      auto r = std::max(node.radius, node.radius2);
-      return centered({r, node.height, r});
-    }
-    case sdf_type::plane:
-      return {{-flt_inf, 0, -flt_inf}, {flt_inf, 0, flt_inf}};
-    case sdf_type::capsule:
-      return centered({node.radius, node.height + node.radius, node.radius});
-    case sdf_type::cylinder:
-      return centered({node.radius, node.height, node.radius});
-    case sdf_type::rounded_box: return centered(node.size);
-    case sdf_type::ellipsoid: return centered(node.size);
-    case sdf_type::octahedron: return centered(vec3f{1, 1, 1} * node.radius);
+    IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_BOUNDS)
     case sdf_type::op_union:
     case sdf_type::op_intersection:
     case sdf_type::op_subtraction:
@@ -411,28 +364,16 @@ bbox3f primitive_bounds(const sdf_node& node) {
     case sdf_type::op_onion:
     case sdf_type::op_transform: break;
   }
+#undef IMPLICIT_SDF_BOUNDS
   assert(false && "primitive_bounds on an operator");
   return {};
 }
 
 float primitive_lipschitz(const sdf_node& node) {
+#define IMPLICIT_SDF_LIPSCHITZ(id, name) \
+  case sdf_type::id: return lipschitz_##id(node);
   switch (node.type) {
-    case sdf_type::ellipsoid: {
-      // IQ's bound k0(k0-1)/k1 is steeper than 1 away from the surface by at
-      // most the axis ratio.
-      auto lo = min(node.size), hi = max(node.size);
-      return lo > 0 ? hi / lo : 1;
-    }
-    case sdf_type::box:
-    case sdf_type::bbox:
-    case sdf_type::sphere:
-    case sdf_type::torus:
-    case sdf_type::capped_cone:
-    case sdf_type::plane:
-    case sdf_type::capsule:
-    case sdf_type::cylinder:
-    case sdf_type::rounded_box:
-    case sdf_type::octahedron: return 1;
+    IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_LIPSCHITZ)
     case sdf_type::op_union:
     case sdf_type::op_intersection:
     case sdf_type::op_subtraction:
@@ -443,8 +384,47 @@ float primitive_lipschitz(const sdf_node& node) {
     case sdf_type::op_onion:
     case sdf_type::op_transform: break;
   }
+#undef IMPLICIT_SDF_LIPSCHITZ
   assert(false && "primitive_lipschitz on an operator");
   return 1;
+}
+
+sdf_param_list primitive_params(sdf_type type) {
+#define IMPLICIT_SDF_PARAMS(id, name) \
+  case sdf_type::id: return make_param_list(sdf_params_##id);
+  switch (type) {
+    IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_PARAMS)
+    case sdf_type::op_union:
+    case sdf_type::op_intersection:
+    case sdf_type::op_subtraction:
+    case sdf_type::op_smooth_union:
+    case sdf_type::op_smooth_intersection:
+    case sdf_type::op_smooth_subtraction:
+    case sdf_type::op_round:
+    case sdf_type::op_onion:
+    case sdf_type::op_transform: break;
+  }
+#undef IMPLICIT_SDF_PARAMS
+  return {};
+}
+
+sdf_param_problem check_primitive(const sdf_node& node) {
+#define IMPLICIT_SDF_CHECK(id, name) \
+  case sdf_type::id: return check_##id(node);
+  switch (node.type) {
+    IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_CHECK)
+    case sdf_type::op_union:
+    case sdf_type::op_intersection:
+    case sdf_type::op_subtraction:
+    case sdf_type::op_smooth_union:
+    case sdf_type::op_smooth_intersection:
+    case sdf_type::op_smooth_subtraction:
+    case sdf_type::op_round:
+    case sdf_type::op_onion:
+    case sdf_type::op_transform: break;
+  }
+#undef IMPLICIT_SDF_CHECK
+  return {};
 }
 
 // One forward pass over the nodes (operands come first), no recursion.
@@ -495,17 +475,8 @@ bbox3f sdf_bounds(const sdf_program& program) {
       case sdf_type::op_transform:
         box = transform_bbox(inverse(program.frames[node.frame]), left());
         break;
-      case sdf_type::box:
-      case sdf_type::bbox:
-      case sdf_type::sphere:
-      case sdf_type::torus:
-      case sdf_type::capped_cone:
-      case sdf_type::plane:
-      case sdf_type::capsule:
-      case sdf_type::cylinder:
-      case sdf_type::rounded_box:
-      case sdf_type::ellipsoid:
-      case sdf_type::octahedron: box = primitive_bounds(node); break;
+        IMPLICIT_SDF_PRIMITIVE_CASES box = primitive_bounds(node);
+        break;
     }
   }
   return bounds.back();

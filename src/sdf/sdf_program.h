@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "../math/math.h"
+#include "sdf_primitive_table.h"
 
 namespace implicit {
 
@@ -19,41 +20,32 @@ namespace implicit {
 // NODES
 // -----------------------------------------------------------------------------
 
-// Node types: primitives first (the seed's six, then the new ones), then the
+// Node types: primitives first (the rows of sdf_primitive_table.h), then the
 // operators. Names in sdf_type_names, used by JSON, CLI and UI.
+// clang-format off
+#define IMPLICIT_SDF_ENUM(id, name) id,
 enum class sdf_type {
-  // clang-format off
-  box, bbox, sphere, torus, capped_cone, plane,
-  capsule, cylinder, rounded_box, ellipsoid, octahedron,
-  op_union, op_intersection, op_subtraction,
-  op_smooth_union, op_smooth_intersection, op_smooth_subtraction,
-  op_round, op_onion, op_transform,
-  // clang-format on
+  IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_ENUM)
+  IMPLICIT_SDF_OPERATORS(IMPLICIT_SDF_ENUM)
 };
+#undef IMPLICIT_SDF_ENUM
 
+#define IMPLICIT_SDF_NAME(id, name) name,
 inline const std::vector<std::string> sdf_type_names = {
-    // clang-format off
-  "box", "bbox", "sphere", "torus", "capped_cone", "plane",
-  "capsule", "cylinder", "rounded_box", "ellipsoid", "octahedron",
-  "union", "intersection", "subtraction",
-  "smooth_union", "smooth_intersection", "smooth_subtraction",
-  "round", "onion", "transform",
-    // clang-format on
+  IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_NAME)
+  IMPLICIT_SDF_OPERATORS(IMPLICIT_SDF_NAME)
 };
+#undef IMPLICIT_SDF_NAME
+// clang-format on
 
 // True for leaves, false for operators.
 inline bool is_primitive(sdf_type type) { return type < sdf_type::op_union; }
 
 // One node. Parameters are named by meaning; each type reads only its own:
-//   box: size (full size, corner at origin)      bbox: size (half), thickness
-//   sphere: radius                               torus: radius (ring), radius2
-//   (tube) capped_cone: height (half), radius (bottom), radius2 (top) plane:
-//   none                                  capsule/cylinder: height (half),
-//   radius rounded_box: size (half), radius             ellipsoid: size
-//   (semi-axes) octahedron: radius                           smooth ops: blend
-//   round: radius (added thickness)              onion: thickness (half shell)
-//   transform: frame (child_from_parent), operand left
-// Subtraction removes `right` from `left`.
+// primitives those of their sdf_params_<id> (sdf_primitives.h); smooth ops
+// blend; round radius (added thickness); onion thickness (half shell);
+// transform frame (child_from_parent) and operand left. Subtraction removes
+// `right` from `left`.
 struct sdf_node {
   sdf_type type      = sdf_type::sphere;
   vec3f    size      = {0, 0, 0};
@@ -165,6 +157,11 @@ vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step);
 bbox3f primitive_bounds(const sdf_node& node);
 // Lipschitz factor of one primitive (1 for exact distances).
 float primitive_lipschitz(const sdf_node& node);
+// JSON parameters of a primitive (none for operators).
+sdf_param_list primitive_params(sdf_type type);
+// Checks across the parameters of a primitive whose parameters are each in
+// range (no problem for operators).
+sdf_param_problem check_primitive(const sdf_node& node);
 
 // Bounding box of the zero set, in local space. Unbounded axes are infinite.
 bbox3f sdf_bounds(const sdf_program& program);

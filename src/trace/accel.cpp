@@ -66,7 +66,10 @@ accel_data make_accel(
     object.kind     = object_kind::grid;
     object.index    = i;
     object.material = instance.material;
-    object.grid     = &scene.volumes.at(instance.volume).grid;
+    object.grid     = scene.volumes.at(instance.volume).grid;
+    // A scene parsed without its files has no grids: an empty one is never
+    // hit, as before.
+    if (!object.grid) object.grid = std::make_shared<const grid_data>();
     // Grid space = instance space divided by the scale.
     auto unscale            = frame3f{{1 / instance.scale, 0, 0},
         {0, 1 / instance.scale, 0}, {0, 0, 1 / instance.scale}, {0, 0, 0}};
@@ -82,7 +85,7 @@ accel_data make_accel(
     object.kind             = object_kind::user;
     object.index            = i;
     object.material         = user.material;
-    object.user             = &user;
+    object.user             = std::make_shared<const user_sdf_data>(user);
     object.local_from_world = user.local_from_world;
     object.local_bounds     = user.bounds;
     finish_object(object);
@@ -200,32 +203,14 @@ static march_result march_object(const accel_data& accel,
   switch (object.kind) {
     case object_kind::function: {
       if (object.single) {
-        auto& node = object.shape;
-        auto  size = node.size;
-        auto  r1 = node.radius, r2 = node.radius2, h = node.height;
+        // One loop per primitive, its node's fields captured by value. Box,
+        // sphere and plane are solved in closed form before this.
+        auto node = object.shape;
+#define IMPLICIT_SDF_MARCH(id, name) \
+  case sdf_type::id:                 \
+    return march([node](vec3f p) { return eval_##id(node, p); });
         switch (node.type) {
-          case sdf_type::torus:
-            return march([=](vec3f p) { return sd_torus(p, r1, r2); });
-          case sdf_type::capped_cone:
-            return march([=](vec3f p) { return sd_capped_cone(p, h, r1, r2); });
-          case sdf_type::bbox: {
-            auto thickness = node.thickness;
-            return march(
-                [=](vec3f p) { return sd_box_frame(p, size, thickness); });
-          }
-          case sdf_type::capsule:
-            return march([=](vec3f p) { return sd_capsule(p, h, r1); });
-          case sdf_type::cylinder:
-            return march([=](vec3f p) { return sd_cylinder(p, h, r1); });
-          case sdf_type::rounded_box:
-            return march([=](vec3f p) { return sd_rounded_box(p, size, r1); });
-          case sdf_type::ellipsoid:
-            return march([=](vec3f p) { return sd_ellipsoid(p, size); });
-          case sdf_type::octahedron:
-            return march([=](vec3f p) { return sd_octahedron(p, r1); });
-          case sdf_type::box:
-          case sdf_type::sphere:
-          case sdf_type::plane:
+          IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_MARCH)
           case sdf_type::op_union:
           case sdf_type::op_intersection:
           case sdf_type::op_subtraction:
@@ -236,6 +221,7 @@ static march_result march_object(const accel_data& accel,
           case sdf_type::op_onion:
           case sdf_type::op_transform: break;
         }
+#undef IMPLICIT_SDF_MARCH
       }
       auto& field = *object.field;
       if (field.cells.empty()) {

@@ -81,7 +81,9 @@ enum class object_kind { function, grid, user };
 // gradient of the one that attains it, off the measure-zero set where two
 // are equal and the union has a crease anyway). Every function object owns
 // its program as an sdf_field: pruned per cell of an octree over its box for
-// the `bvh` accel, the whole tree for the reference (`none`).
+// the `bvh` accel, the whole tree for the reference (`none`). Grid objects
+// share their volume's grid and user objects own a copy of the user SDF, so
+// an accel refers to nothing in the scene it was made from.
 struct trace_object {
   object_kind                      kind             = object_kind::function;
   int                              index            = invalidid;  // in scene
@@ -95,9 +97,9 @@ struct trace_object {
   bool                             exact  = false;  // closed-form intersection
   bool                             single = false;  // one primitive node
   sdf_node                         shape  = {};     // that node, if single
-  std::shared_ptr<const sdf_field> field  = nullptr;  // function objects
-  const grid_data*                 grid   = nullptr;
-  const user_sdf_data*             user   = nullptr;
+  std::shared_ptr<const sdf_field> field  = nullptr;    // function objects
+  std::shared_ptr<const grid_data> grid   = nullptr;    // the volume's
+  std::shared_ptr<const user_sdf_data> user = nullptr;  // a copy
 };
 
 // Owner of an Embree device and scene. Move-only: the handles are released
@@ -135,7 +137,7 @@ struct accel_data {
 // few objects); march_params::linear_max picks the number up to this.
 inline constexpr int linear_max_objects = 16;
 
-// Build the objects of a scene. The scene must outlive the result.
+// Build the objects of a scene. The result keeps no reference to the scene.
 accel_data make_accel(
     const scene_data& scene, accel_type type, const march_params& march);
 

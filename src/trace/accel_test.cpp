@@ -597,3 +597,42 @@ TEST_CASE("accel: march cutoff keeps every hit before it") {
   }
   CHECK(kept >= 9);
 }
+
+TEST_CASE("accel: outlives its scene (grids and user SDFs are its own)") {
+  // A baked sphere grid of radius 0.4 about (0.5, 0.5, 0.5), over [0, 1]^3,
+  // and a user sphere of radius 0.5 at x = 3.
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.4f;
+  auto accel    = accel_data{};
+  {
+    auto scene  = scene_data{};
+    auto volume = volume_data{};
+    volume.grid = std::make_shared<const grid_data>(
+        bake_grid(make_primitive_program(sphere),
+            {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-0.5f, -0.5f, -0.5f}},
+            {{0, 0, 0}, {1, 1, 1}}, 0.05f));
+    scene.volumes.push_back(volume);
+    auto instance     = vol_instance_data{};
+    instance.volume   = 0;
+    instance.material = 0;
+    scene.vol_instances.push_back(instance);
+    auto user             = user_sdf_data{};
+    user.eval             = [](vec3f p) { return length(p) - 0.5f; };
+    user.bounds           = {{-0.5f, -0.5f, -0.5f}, {0.5f, 0.5f, 0.5f}};
+    user.local_from_world = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-3, 0, 0}};
+    user.material         = 0;
+    scene.user_sdfs.push_back(user);
+    accel = make_accel(scene, accel_type::bvh, {});
+  }
+  // The scene is gone; both objects still trace (ASan would flag a use of
+  // its memory).
+  auto grid_hit = intersect_scene(accel, {{0.5f, 0.5f, -2}, {0, 0, 1}});
+  REQUIRE(grid_hit.hit);
+  CHECK(accel.objects[grid_hit.object].kind == object_kind::grid);
+  CHECK(grid_hit.distance == doctest::Approx(2.1f).epsilon(0.01));
+  auto user_hit = intersect_scene(accel, {{3, 0, -2}, {0, 0, 1}});
+  REQUIRE(user_hit.hit);
+  CHECK(accel.objects[user_hit.object].kind == object_kind::user);
+  CHECK(user_hit.distance == doctest::Approx(1.5f).epsilon(1e-3));
+}

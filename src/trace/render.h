@@ -28,8 +28,8 @@ namespace implicit {
 // CONTEXT
 // -----------------------------------------------------------------------------
 
-// The scene and what is built from it once. Not copyable, not movable (the
-// accel points into the scene): make_render_context() hands out a unique_ptr.
+// The scene and what is built from it once. Not copyable; front ends share
+// one by const reference, so make_render_context() hands out a unique_ptr.
 struct render_context {
   scene_data  scene        = {};
   accel_data  accel        = {};
