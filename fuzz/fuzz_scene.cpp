@@ -9,6 +9,9 @@
 
 #include <tbb/global_control.h>
 
+#include <memory>
+#include <utility>
+
 #include "../src/scene/scene_io.h"
 #include "../src/sdf/sdf_grid.h"
 #include "../src/trace/trace.h"
@@ -23,13 +26,14 @@ static void add_stand_in_files(implicit::scene_data& scene) {
       texture.image.pixels[i] = {0.1f * i, 0.5f, 1.0f / (1 + i), 1};
   }
   for (auto& volume : scene.volumes) {
-    volume.grid = make_grid({4, 4, 4}, 0.25f, {-0.5f, -0.5f, -0.5f}, 0);
+    auto grid = make_grid({4, 4, 4}, 0.25f, {-0.5f, -0.5f, -0.5f}, 0);
     for (auto k = 0; k < 4; k++)
       for (auto j = 0; j < 4; j++)
         for (auto i = 0; i < 4; i++)
-          volume.grid.values[(k * 4 + j) * 4 + i] =
+          grid.values[(k * 4 + j) * 4 + i] =
               length(vec3f{i - 1.5f, j - 1.5f, k - 1.5f}) * 0.25f - 0.3f;
-    update_grid_accel(volume.grid);
+    update_grid_accel(grid);
+    volume.grid = std::make_shared<const grid_data>(std::move(grid));
   }
 }
 
