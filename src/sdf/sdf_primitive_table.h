@@ -55,6 +55,9 @@ namespace implicit {
 #define IMPLICIT_SDF_PRIMITIVE_CASE(id, name) case sdf_type::id:
 #define IMPLICIT_SDF_PRIMITIVE_CASES \
   IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_PRIMITIVE_CASE)
+// The same for each operator.
+#define IMPLICIT_SDF_OPERATOR_CASES \
+  IMPLICIT_SDF_OPERATORS(IMPLICIT_SDF_PRIMITIVE_CASE)
 
 // -----------------------------------------------------------------------------
 // PARAMETERS

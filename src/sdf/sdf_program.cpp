@@ -202,15 +202,7 @@ float eval_primitive(const sdf_node& node, vec3f p) {
   case sdf_type::id: return eval_##id(node, p);
   switch (node.type) {
     IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_EVAL)
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction:
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction:
-    case sdf_type::op_round:
-    case sdf_type::op_onion:
-    case sdf_type::op_transform: break;
+    IMPLICIT_SDF_OPERATOR_CASES break;
   }
 #undef IMPLICIT_SDF_EVAL
   assert(false && "eval_primitive on an operator");
@@ -354,15 +346,7 @@ bbox3f primitive_bounds(const sdf_node& node) {
   case sdf_type::id: return bounds_##id(node);
   switch (node.type) {
     IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_BOUNDS)
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction:
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction:
-    case sdf_type::op_round:
-    case sdf_type::op_onion:
-    case sdf_type::op_transform: break;
+    IMPLICIT_SDF_OPERATOR_CASES break;
   }
 #undef IMPLICIT_SDF_BOUNDS
   assert(false && "primitive_bounds on an operator");
@@ -374,15 +358,7 @@ float primitive_lipschitz(const sdf_node& node) {
   case sdf_type::id: return lipschitz_##id(node);
   switch (node.type) {
     IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_LIPSCHITZ)
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction:
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction:
-    case sdf_type::op_round:
-    case sdf_type::op_onion:
-    case sdf_type::op_transform: break;
+    IMPLICIT_SDF_OPERATOR_CASES break;
   }
 #undef IMPLICIT_SDF_LIPSCHITZ
   assert(false && "primitive_lipschitz on an operator");
@@ -394,15 +370,7 @@ sdf_param_list primitive_params(sdf_type type) {
   case sdf_type::id: return make_param_list(sdf_params_##id);
   switch (type) {
     IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_PARAMS)
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction:
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction:
-    case sdf_type::op_round:
-    case sdf_type::op_onion:
-    case sdf_type::op_transform: break;
+    IMPLICIT_SDF_OPERATOR_CASES break;
   }
 #undef IMPLICIT_SDF_PARAMS
   return {};
@@ -413,15 +381,7 @@ sdf_param_problem check_primitive(const sdf_node& node) {
   case sdf_type::id: return check_##id(node);
   switch (node.type) {
     IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_CHECK)
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction:
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction:
-    case sdf_type::op_round:
-    case sdf_type::op_onion:
-    case sdf_type::op_transform: break;
+    IMPLICIT_SDF_OPERATOR_CASES break;
   }
 #undef IMPLICIT_SDF_CHECK
   return {};

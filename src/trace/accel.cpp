@@ -211,15 +211,7 @@ static march_result march_object(const accel_data& accel,
     return march([node](vec3f p) { return eval_##id(node, p); });
         switch (node.type) {
           IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_MARCH)
-          case sdf_type::op_union:
-          case sdf_type::op_intersection:
-          case sdf_type::op_subtraction:
-          case sdf_type::op_smooth_union:
-          case sdf_type::op_smooth_intersection:
-          case sdf_type::op_smooth_subtraction:
-          case sdf_type::op_round:
-          case sdf_type::op_onion:
-          case sdf_type::op_transform: break;
+          IMPLICIT_SDF_OPERATOR_CASES break;
         }
 #undef IMPLICIT_SDF_MARCH
       }
