@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "scene/scene_random.h"
 #include "sdf/sdf_models.h"
 #include "trace/trace.h"
 
@@ -30,24 +31,9 @@ using namespace implicit;
 
 // One sdfunction with the model, a matte material, a sky, a camera.
 static scene_data make_scene(sdf_model_type type, int count) {
-  auto scene     = scene_data{};
   auto material  = material_data{};
   material.color = {0.7f, 0.6f, 0.5f};
-  scene.materials.push_back(material);
-  auto function     = sdf_function_data{};
-  function.name     = "model";
-  function.program  = make_sdf_model(type, count, 7);
-  function.material = 0;
-  scene.sdfunctions.push_back(function);
-  auto sky     = environment_data{};
-  sky.emission = {1, 1, 1};
-  scene.environments.push_back(sky);
-  auto camera   = camera_data{};
-  camera.frame  = lookat_frame({1.6f, 1.9f, 3.2f}, {0, 0, 0}, {0, 1, 0});
-  camera.focus  = 4;
-  camera.aspect = 1;
-  scene.cameras.push_back(camera);
-  return scene;
+  return make_model_scene(make_sdf_model(type, count, 7), material);
 }
 
 static double cpu_seconds() {

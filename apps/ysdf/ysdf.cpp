@@ -247,34 +247,34 @@ shape_spec parse_shape(const std::string& spec) {
   return shape;
 }
 
-// Union (smooth with blend > 0) of the shapes, minus the subtracted ones.
+// Union (smooth with blend > 0) of the shapes, minus the subtracted ones,
+// combined as a scene's `operands` lists are (fold_sdf_operands).
 sdf_program make_shapes_program(
     const std::vector<shape_spec>& shapes, float blend) {
-  auto program = sdf_program{};
-  auto root    = invalidid;
-  for (auto pass : {false, true}) {
-    for (auto& shape : shapes) {
-      if (shape.subtract != pass) continue;
-      auto node = append_program(program, make_primitive_program(shape.node));
-      if (shape.at != vec3f{0, 0, 0})
-        node = add_transform(
-            program, node, frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -shape.at});
-      if (root == invalidid) {
-        if (pass) throw io_error("--shape: subtracting from nothing");
-        root = node;
-        continue;
-      }
-      auto op = sdf_node{};
-      op.type =
-          pass ? (blend > 0 ? sdf_type::op_smooth_subtraction
-                            : sdf_type::op_subtraction)
-               : (blend > 0 ? sdf_type::op_smooth_union : sdf_type::op_union);
-      op.left  = root;
-      op.right = node;
-      op.blend = blend;
-      root     = add_node(program, op);
-    }
+  auto program    = sdf_program{};
+  auto added      = std::vector<int>{};
+  auto subtracted = std::vector<int>{};
+  for (auto& shape : shapes) {
+    auto node = append_program(program, make_primitive_program(shape.node));
+    if (shape.at != vec3f{0, 0, 0})
+      node = add_transform(
+          program, node, frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -shape.at});
+    (shape.subtract ? subtracted : added).push_back(node);
   }
+  if (added.empty()) {
+    if (!subtracted.empty())
+      throw io_error("--shape: subtracting from nothing");
+    return program;
+  }
+  auto op   = sdf_node{};
+  op.blend  = blend;
+  op.type   = blend > 0 ? sdf_type::op_smooth_union : sdf_type::op_union;
+  auto root = fold_sdf_operands(program, added, op);
+  if (subtracted.empty()) return program;
+  subtracted.insert(subtracted.begin(), root);
+  op.type =
+      blend > 0 ? sdf_type::op_smooth_subtraction : sdf_type::op_subtraction;
+  fold_sdf_operands(program, subtracted, op);
   return program;
 }
 

@@ -31,8 +31,9 @@
 //
 //   union, intersection, subtraction     operands (>= 2; folded left, so
 //                                        subtraction removes 2.. from 1)
-//   smooth_union, smooth_intersection,   operands, blend (> 0)
-//   smooth_subtraction
+//   smooth_union, smooth_intersection,   operands, blend (> 0; unions and
+//   smooth_subtraction                   intersections pair neighbours into
+//                                        a balanced tree: fold_sdf_operands)
 //   round                                operand, radius (> 0, added)
 //   onion                                operand, thickness (> 0, half shell)
 //   transform                            operand, frame or world_from_local
@@ -307,7 +308,9 @@ static int parse_sdf_unary_operand(
       json_child(place, "operand"), *it, program, depth + 1);
 }
 
-// Parse the `operands` of a binary operator and fold them left with `op`.
+// Parse the `operands` of a binary operator and combine them with `op`
+// (fold_sdf_operands: folded left, smooth unions and intersections
+// balanced).
 static int parse_sdf_operands(const json_place& place, const json& js,
     sdf_program& program, int depth, const sdf_node& op) {
   auto operands = find_json_array(place, js, "operands");
@@ -328,16 +331,12 @@ static int parse_sdf_operands(const json_place& place, const json& js,
   auto operand_place  = [&](size_t i) {
     return json_element(operands_place, i, (*operands)[i]);
   };
-  auto left =
-      parse_sdf_operand(operand_place(0), (*operands)[0], program, depth + 1);
-  for (size_t i = 1; i < operands->size(); i++) {
-    auto node = op;
-    node.left = left;
-    node.right =
-        parse_sdf_operand(operand_place(i), (*operands)[i], program, depth + 1);
-    left = add_node(program, node);
-  }
-  return left;
+  auto roots = std::vector<int>{};
+  roots.reserve(operands->size());
+  for (size_t i = 0; i < operands->size(); i++)
+    roots.push_back(parse_sdf_operand(
+        operand_place(i), (*operands)[i], program, depth + 1));
+  return fold_sdf_operands(program, roots, op);
 }
 
 // Parse the type, parameters and operands of an sdfunction object (not its

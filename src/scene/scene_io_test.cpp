@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../../tests/shared_data.h"
+#include "../sdf/sdf_primitives.h"
 #include "../util/error.h"
 
 using namespace implicit;
@@ -331,14 +332,15 @@ TEST_CASE("scene_io csg trees") {
           {"type": "box", "whd": [5, 5, 5]},
           {"type": "sphere", "radius": 2}]})");
     auto& nodes = sdf.program.nodes;
+    // The operands first, then ((0 1) 2).
     REQUIRE(nodes.size() == 5);
-    CHECK(nodes[2].type == sdf_type::op_intersection);
-    CHECK(nodes[2].left == 0);
-    CHECK(nodes[2].right == 1);
-    CHECK(nodes[3].type == sdf_type::sphere);
+    CHECK(nodes[2].type == sdf_type::sphere);
+    CHECK(nodes[3].type == sdf_type::op_intersection);
+    CHECK(nodes[3].left == 0);
+    CHECK(nodes[3].right == 1);
     CHECK(nodes[4].type == sdf_type::op_intersection);
-    CHECK(nodes[4].left == 2);
-    CHECK(nodes[4].right == 3);
+    CHECK(nodes[4].left == 3);
+    CHECK(nodes[4].right == 2);
     CHECK(world_distance(sdf, {0.5f, 0.5f, 0.5f}) ==
           doctest::Approx(std::sqrt(0.75f) - 1));
     CHECK(world_distance(sdf, {0.5f, -0.25f, 0.5f}) == doctest::Approx(0.25f));
@@ -365,6 +367,35 @@ TEST_CASE("scene_io csg trees") {
       CHECK(sdf_type_names[(int)other.program.nodes.back().type] == type);
       CHECK(other.program.nodes.back().blend == 0.3f);
     }
+  }
+  SUBCASE("smooth unions of many operands pair neighbours, balanced") {
+    // Five spheres of radius 0.5 at x = 0, 1, 2, 3, 4: ((0 1) (2 3)) 4.
+    auto text = std::string{R"({"type": "smooth_union", "blend": 0.4,
+        "material": 0, "operands": [)"};
+    for (auto i = 0; i < 5; i++)
+      text += std::string{i ? "," : ""} +
+              R"({"type": "sphere", "radius": 0.5, "world_from_local":
+              [1,0,0, 0,1,0, 0,0,1, )" +
+              std::to_string(i) + ",0,0]}";
+    auto  sdf   = parse_sdfunction_text(text + "]}");
+    auto& nodes = sdf.program.nodes;
+    REQUIRE(nodes.size() == 14);  // 5 spheres, 5 transforms, 4 blends
+    auto leaf = [&](int i) { return 2 * i + 1; };  // sphere, then transform
+    CHECK(nodes[10].left == leaf(0));
+    CHECK(nodes[10].right == leaf(1));
+    CHECK(nodes[11].left == leaf(2));
+    CHECK(nodes[11].right == leaf(3));
+    CHECK(nodes[12].left == 10);
+    CHECK(nodes[12].right == 11);
+    CHECK(nodes[13].left == 12);
+    CHECK(nodes[13].right == leaf(4));
+    // Its value: the same smooth minima, in that order.
+    auto p        = vec3f{1.5f, 0.3f, 0};
+    auto d        = [&](float x) { return length(p - vec3f{x, 0, 0}) - 0.5f; };
+    auto expected = smooth_min(smooth_min(smooth_min(d(0), d(1), 0.4f),
+                                   smooth_min(d(2), d(3), 0.4f), 0.4f),
+        d(4), 0.4f);
+    CHECK(world_distance(sdf, p) == doctest::Approx(expected));
   }
   SUBCASE("round, onion and transform") {
     auto rounded = parse_sdfunction_text(R"({"type": "round", "radius": 0.1,

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include "../math/random.h"
 #include "../math/sampling.h"
@@ -72,6 +73,26 @@ void add_random_primitives(scene_data& scene, int count, float extent,
     function.material         = materials > 1 ? rand1i(rng, materials) : 0;
     scene.sdfunctions.push_back(function);
   }
+}
+
+scene_data make_model_scene(
+    sdf_program program, const material_data& material) {
+  auto scene = scene_data{};
+  scene.materials.push_back(material);
+  auto function     = sdf_function_data{};
+  function.name     = "model";
+  function.program  = std::move(program);
+  function.material = 0;
+  scene.sdfunctions.push_back(std::move(function));
+  auto sky     = environment_data{};
+  sky.emission = {1, 1, 1};
+  scene.environments.push_back(sky);
+  auto camera   = camera_data{};
+  camera.frame  = lookat_frame({1.6f, 1.9f, 3.2f}, {0, 0, 0}, {0, 1, 0});
+  camera.focus  = 4;
+  camera.aspect = 1;
+  scene.cameras.push_back(camera);
+  return scene;
 }
 
 }  // namespace implicit

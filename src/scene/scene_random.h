@@ -1,8 +1,8 @@
 // # implicit: random scenes
 //
-// Clouds of random primitives, the workload of the acceleration tests and
-// benchmarks: many bounded objects with uneven scales (so that their
-// distance bounds are not exact) at any count.
+// Workloads of the tests and benchmarks: clouds of random primitives (many
+// bounded objects with uneven scales, so that their distance bounds are not
+// exact) at any count, and scenes around one large model.
 #pragma once
 
 #include <cstdint>
@@ -18,5 +18,10 @@ namespace implicit {
 // uniformly from [0, materials); the same seed gives the same objects.
 void add_random_primitives(scene_data& scene, int count, float extent,
     float size, int materials, uint64_t seed);
+
+// One sdfunction named "model" holding `program` (such as the models of
+// sdf/sdf_models.h, which fill [-1,1]^3) with `material`, a white sky and a
+// camera looking at that cube.
+scene_data make_model_scene(sdf_program program, const material_data& material);
 
 }  // namespace implicit

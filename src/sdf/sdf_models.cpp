@@ -8,14 +8,6 @@
 
 namespace implicit {
 
-// Fold `leaf` into `root` with `op` (the first leaf becomes the root).
-static int fold(sdf_program& program, int root, int leaf, sdf_node op) {
-  if (root == invalidid) return leaf;
-  op.left  = root;
-  op.right = leaf;
-  return add_node(program, op);
-}
-
 // A primitive moved so that its local origin sits at `at`.
 static int place(sdf_program& program, const sdf_node& node, vec3f at) {
   return add_transform(program, add_node(program, node),
@@ -25,14 +17,14 @@ static int place(sdf_program& program, const sdf_node& node, vec3f at) {
 sdf_program make_sdf_model(sdf_model_type type, int count, uint64_t seed) {
   auto program = sdf_program{};
   auto rng     = make_rng(seed);
-  auto root    = invalidid;
+  auto roots   = std::vector<int>{};  // operands, combined at the end
+  auto op      = sdf_node{};
   switch (type) {
     case sdf_model_type::hard_union:
     case sdf_model_type::smooth_union: {
       // Grid of n^3 >= count cells over [-1,1]^3, one operand per cell.
       auto n       = (int)std::ceil(std::cbrt((double)count) - 1e-9);
       auto spacing = 2.0f / n;
-      auto op      = sdf_node{};
       op.type      = type == sdf_model_type::hard_union ? sdf_type::op_union
                                                         : sdf_type::op_smooth_union;
       op.blend     = type == sdf_model_type::hard_union ? 0 : 0.6f * spacing;
@@ -54,7 +46,7 @@ sdf_program make_sdf_model(sdf_model_type type, int count, uint64_t seed) {
           node.radius =
               (type == sdf_model_type::hard_union ? 0.35f : 0.3f) * spacing;
         }
-        root = fold(program, root, place(program, node, at), op);
+        roots.push_back(place(program, node, at));
       }
       break;
     }
@@ -64,9 +56,8 @@ sdf_program make_sdf_model(sdf_model_type type, int count, uint64_t seed) {
       auto slab    = sdf_node{};
       slab.type    = sdf_type::box;
       slab.size    = {2, 0.2f, 2};
-      root         = place(program, slab, {-1, -0.1f, -1});
-      auto op      = sdf_node{};
-      op.type      = sdf_type::op_subtraction;
+      roots.push_back(place(program, slab, {-1, -0.1f, -1}));
+      op.type = sdf_type::op_subtraction;
       for (auto i = 0; i < count; i++) {
         auto cylinder   = sdf_node{};
         cylinder.type   = sdf_type::cylinder;
@@ -74,11 +65,12 @@ sdf_program make_sdf_model(sdf_model_type type, int count, uint64_t seed) {
         cylinder.radius = 0.3f * spacing;
         auto at         = vec3f{((float)(i % n) + 0.5f) * spacing - 1, 0,
             ((float)(i / n) + 0.5f) * spacing - 1};
-        root            = fold(program, root, place(program, cylinder, at), op);
+        roots.push_back(place(program, cylinder, at));
       }
       break;
     }
   }
+  fold_sdf_operands(program, roots, op);
   return program;
 }
 

@@ -2,7 +2,8 @@
 //
 // The workloads of the large-model tests and benchmarks (issue 11): one
 // program of many operands, as SDF modelling produces them, built the way
-// the JSON loader builds `operands` lists (folded left). All fill the cube
+// the JSON loader combines `operands` lists (fold_sdf_operands). All fill the
+// cube
 // [-1,1]^3 (the slab: its middle) at any count, so that costs compare across
 // counts.
 #pragma once

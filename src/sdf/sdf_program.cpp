@@ -20,6 +20,33 @@ int add_node(sdf_program& program, const sdf_node& node) {
   return root_node(program);
 }
 
+int fold_sdf_operands(
+    sdf_program& program, const std::vector<int>& operands, sdf_node op) {
+  if (operands.empty()) return invalidid;
+  auto combine = [&](int left, int right) {
+    op.left  = left;
+    op.right = right;
+    return add_node(program, op);
+  };
+  if (op.type != sdf_type::op_smooth_union &&
+      op.type != sdf_type::op_smooth_intersection) {
+    auto root = operands[0];
+    for (size_t i = 1; i < operands.size(); i++)
+      root = combine(root, operands[i]);
+    return root;
+  }
+  auto level = operands;
+  while (level.size() > 1) {
+    auto next = std::vector<int>{};
+    next.reserve((level.size() + 1) / 2);
+    for (size_t i = 0; i + 1 < level.size(); i += 2)
+      next.push_back(combine(level[i], level[i + 1]));
+    if (level.size() % 2 == 1) next.push_back(level.back());
+    level = std::move(next);
+  }
+  return level[0];
+}
+
 int add_transform(
     sdf_program& program, int operand, const frame3f& child_from_parent) {
   program.frames.push_back(child_from_parent);

@@ -79,6 +79,17 @@ int add_node(sdf_program& program, const sdf_node& node);
 // parent's points into the operand's space.
 int add_transform(
     sdf_program& program, int operand, const frame3f& child_from_parent);
+// Combine the operand roots `operands` (at least one) with the binary
+// operator `op` (its `left` and `right` are set here) and return the root.
+// Smooth unions and smooth intersections pair neighbours level by level into
+// a balanced tree, ((1 2) (3 4)) ((5 6) 7), the same as folding left for 2
+// and 3 operands: a smooth fold depends on every operand before the nearest
+// ones, so a left fold of a long list could not be pruned in space, while
+// the balanced tree of a spatially ordered list leaves each region a few
+// operands. The other operators fold left, ((1 2) 3) 4, which for unions and
+// intersections is the same function and makes subtraction remove 2.. from 1.
+int fold_sdf_operands(
+    sdf_program& program, const std::vector<int>& operands, sdf_node op);
 // Append the nodes of `other` (its root becomes an operand); returns its root.
 int append_program(sdf_program& program, const sdf_program& other);
 // A one-node program.

@@ -8,6 +8,7 @@
 
 #include "../math/random.h"
 #include "../util/error.h"
+#include "sdf_models.h"
 
 namespace implicit {
 namespace {
@@ -351,6 +352,52 @@ TEST_CASE("sdf split: union parts keep their transforms and the rest") {
   auto everywhere = sdf_program{};
   everywhere.nodes.push_back(sphere);
   CHECK(split_sdf_union(everywhere).size() == 1);
+}
+
+TEST_CASE("sdf prune: a balanced smooth blob keeps a few operands per cell") {
+  // 1,000 blended spheres on a jittered 10^3 lattice, as the loader combines
+  // an `operands` list (balanced), and the same spheres folded left: a
+  // small cell around a middle sphere keeps a few dozen operands of the
+  // balanced tree, and every operand before the near ones of the left fold
+  // (their blends reach it through the chain).
+  auto balanced = make_sdf_model(sdf_model_type::smooth_union, 1000, 7);
+  auto leaves   = std::vector<int>{};
+  auto op       = sdf_node{};
+  for (auto i = 0; i < (int)balanced.nodes.size(); i++) {
+    auto& node = balanced.nodes[i];
+    if (node.type == sdf_type::op_transform) leaves.push_back(i);
+    if (node.type == sdf_type::op_smooth_union) op = node;
+  }
+  REQUIRE(leaves.size() == 1000);
+  auto left_fold = balanced;  // the spheres, their blends come after them
+  left_fold.nodes.resize(leaves.back() + 1);
+  auto root = leaves[0];
+  for (auto i = 1; i < 1000; i++) {
+    op.left  = root;
+    op.right = leaves[i];
+    root     = add_node(left_fold, op);
+  }
+  auto count = [](const sdf_program& program) {
+    auto primitives = 0;
+    for (auto& node : program.nodes) primitives += is_primitive(node.type);
+    return primitives;
+  };
+  // Sphere 555 (lattice cell 5, 5, 5): its centre is minus the translation.
+  auto& frame  = balanced.frames[balanced.nodes[leaves[555]].frame];
+  auto  centre = -frame.o;
+  auto  cell   = bbox3f{centre - 0.02f, centre + 0.02f};  // spacing 0.2
+  auto  pruned = prune_sdf(balanced, cell);
+  auto  folded = prune_sdf(left_fold, cell);
+  CHECK(count(pruned) <= 40);
+  CHECK(count(folded) >= 3 * count(pruned));  // 33 and 136 when written
+  auto rng = make_rng(5);
+  for (auto k = 0; k < 16; k++) {
+    auto p = cell.min + (cell.max - cell.min) * uniform3(rng, 0, 1);
+    CHECK(eval_sdf(pruned, p) ==
+          doctest::Approx(eval_sdf(balanced, p)).epsilon(1e-5).scale(1));
+    CHECK(eval_sdf(folded, p) ==
+          doctest::Approx(eval_sdf(left_fold, p)).epsilon(1e-5).scale(1));
+  }
 }
 
 }  // namespace implicit

@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "../scene/scene_random.h"
 #include "../sdf/sdf_models.h"
 #include "accel.h"
 #include "trace.h"
@@ -14,23 +15,8 @@ using namespace implicit;
 
 namespace {
 
-// One sdfunction with `program`, a sky, a camera looking at [-1,1]^3.
 scene_data make_model_scene(sdf_program program) {
-  auto scene = scene_data{};
-  scene.materials.push_back({});
-  auto function     = sdf_function_data{};
-  function.program  = std::move(program);
-  function.material = 0;
-  scene.sdfunctions.push_back(std::move(function));
-  auto sky     = environment_data{};
-  sky.emission = {1, 1, 1};
-  scene.environments.push_back(sky);
-  auto camera   = camera_data{};
-  camera.frame  = lookat_frame({1.6f, 1.9f, 3.2f}, {0, 0, 0}, {0, 1, 0});
-  camera.focus  = 4;
-  camera.aspect = 1;
-  scene.cameras.push_back(camera);
-  return scene;
+  return make_model_scene(std::move(program), material_data{});
 }
 
 // A small pruning budget keeps the sanitizer build fast; the pruned values
