@@ -62,8 +62,16 @@ static void make_environment_table(
       row[i / f] += weight;
     }
   }
-  light.weights.assign(sums.begin(), sums.end());
-  light.cells = make_alias_table(light.weights);
+  auto weights = std::vector<float>(sums.begin(), sums.end());
+  light.cells  = make_alias_table(weights);
+  if (light.cells.entries.empty()) return;
+  auto scale = (double)light.width * light.height /
+               (light.cells.total * 2 * (double)pif * (double)pif);
+  light.cell_pdfs.resize(weights.size());
+  for (size_t k = 0; k < weights.size(); k++) {
+    auto valid = std::isfinite(weights[k]) && weights[k] > 0;  // as the table
+    light.cell_pdfs[k] = valid ? (float)(weights[k] * scale) : 0.0f;
+  }
 }
 
 lights_data make_lights(const scene_data& scene, const accel_data& accel) {
@@ -94,10 +102,11 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
   for (auto i = 0; i < (int)scene.environments.size(); i++) {
     auto& environment = scene.environments[i];
     if (max(environment.emission) <= 0) continue;
-    auto light        = trace_light{};
-    light.shape       = light_shape::environment;
-    light.environment = i;
-    auto texture      = environment.emission_tex;
+    auto light           = trace_light{};
+    light.shape          = light_shape::environment;
+    light.environment    = i;
+    light.env_from_world = inverse(environment.frame);
+    auto texture         = environment.emission_tex;
     if (texture >= 0 && texture < (int)scene.textures.size()) {
       make_environment_table(scene.textures[texture].image, light);
       if (light.cells.entries.empty()) continue;
@@ -179,8 +188,8 @@ static float shape_light_pdf(
   return pdf;
 }
 
-float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, vec3f position, vec3f direction) {
+float sample_lights_pdf(const accel_data& accel, const lights_data& lights,
+    vec3f position, vec3f direction) {
   if (lights.lights.empty()) return 0;
   auto pdf = 0.0f;
   auto ray = ray3f{position, direction, 0, flt_max};
@@ -198,17 +207,14 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
           pdf += picked / (4 * pif);
           break;
         }
-        auto& environment = scene.environments[light.environment];
-        auto  wl = transform_direction(inverse(environment.frame), direction);
-        auto  uv = latlong_uv(wl);
-        auto  sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
-        auto  i         = clamp((int)(uv.x * light.width), 0, light.width - 1);
-        auto  j    = clamp((int)(uv.y * light.height), 0, light.height - 1);
-        auto  prob = (float)(light.weights[(size_t)j * light.width + i] /
-                            light.cells.total);
+        auto wl        = transform_direction(light.env_from_world, direction);
+        auto uv        = latlong_uv(wl);
+        auto sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
+        auto i         = clamp((int)(uv.x * light.width), 0, light.width - 1);
+        auto j         = clamp((int)(uv.y * light.height), 0, light.height - 1);
         if (sin_theta > 0)
-          pdf += picked * prob * light.width * light.height /
-                 (2 * pif * pif * sin_theta);
+          pdf +=
+              picked * light.cell_pdfs[(size_t)j * light.width + i] / sin_theta;
         break;
       }
     }

@@ -35,8 +35,12 @@ struct trace_light {
   float              area        = 0;
   std::vector<float> cdf         = {};
   alias_table        cells       = {};
-  std::vector<float> weights     = {};       // of each cell, row-major
+  // Solid-angle pdf of each cell (row-major) times sin(theta): its
+  // probability over the cell's uv area and 2 pi^2 (one float per cell, so
+  // the lookup on every bounce stays in cache and needs no division).
+  std::vector<float> cell_pdfs = {};
   int                width = 0, height = 0;  // environment cells
+  frame3f            env_from_world = {};    // the environment's inverse frame
 };
 
 struct lights_data {
@@ -53,7 +57,7 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
 
 // Solid-angle pdf of sample_lights() producing `direction` from `position`:
 // every point of every light along the direction contributes.
-float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, vec3f position, vec3f direction);
+float sample_lights_pdf(const accel_data& accel, const lights_data& lights,
+    vec3f position, vec3f direction);
 
 }  // namespace implicit
