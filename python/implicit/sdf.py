@@ -361,13 +361,21 @@ def _sdf(value, name="operand"):
 
 def _combine(kind, a, bs, k):
     """Fold operands left; plain steps extend one n-ary node, smooth ones
-    (k given, or the right operand's .k()) nest a smooth node."""
+    (the right operand's .k()) nest a smooth node. With `k`, all operands
+    form one smooth node, as the scene format reads an `operands` list:
+    unions and intersections pair neighbours into a balanced tree (the
+    same as folding left for 2 and 3 operands), so that a blend of many
+    parts listed in spatial order prunes well and nests no deeper than
+    one level."""
     node = _sdf(a)._node
     if k is not None:
         k = _positive("k", k)
+        if bs:
+            return SDF({"type": "smooth_" + kind, "blend": k, "operands":
+                        [node] + [_sdf(b)._node for b in bs]})
     for b in bs:
         b = _sdf(b)
-        blend = k if k is not None else b._k
+        blend = b._k
         if blend is not None:
             node = {"type": "smooth_" + kind, "operands": [node, b._node],
                     "blend": blend}

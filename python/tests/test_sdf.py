@@ -171,6 +171,27 @@ def test_smooth_operators():
     close(A.k(k) | B, POINTS, np.minimum(DA, DB))
 
 
+def test_smooth_union_of_many_is_one_balanced_node():
+    # Five spheres in a row, k given: one node, ((0 1) (2 3)) 4; chained
+    # .k() operands nest left instead, (((0 1) 2) 3) 4.
+    k = 0.4
+    spheres = [im.sphere(0.5, center=(i, 0, 0)) for i in range(5)]
+    d = [length(POINTS - [i, 0, 0]) - 0.5 for i in range(5)]
+    blob = im.union(*spheres, k=k)
+    assert blob._node["type"] == "smooth_union"
+    assert len(blob._node["operands"]) == 5
+    balanced = smooth_min(smooth_min(smooth_min(d[0], d[1], k),
+                                     smooth_min(d[2], d[3], k), k), d[4], k)
+    folded = smooth_min(smooth_min(smooth_min(smooth_min(
+        d[0], d[1], k), d[2], k), d[3], k), d[4], k)
+    assert np.max(np.abs(balanced - folded)) > 1e-3  # the test can tell
+    close(blob, POINTS, balanced)
+    chain = spheres[0]
+    for s in spheres[1:]:
+        chain = chain | s.k(k)
+    close(chain, POINTS, folded)
+
+
 def test_round_and_shell():
     close(B.round(0.1), POINTS, DB - 0.1)
     close(B.dilate(0.1), POINTS, DB - 0.1)
