@@ -337,16 +337,7 @@ static bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g) {
     case sdf_type::cylinder:
     case sdf_type::rounded_box:
     case sdf_type::ellipsoid:
-    case sdf_type::octahedron:
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction:
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction:
-    case sdf_type::op_round:
-    case sdf_type::op_onion:
-    case sdf_type::op_transform: return false;
+    case sdf_type::octahedron: IMPLICIT_SDF_OPERATOR_CASES return false;
   }
   return false;
 }
@@ -543,16 +534,7 @@ bool intersect_sdf_exact(
     case sdf_type::cylinder:
     case sdf_type::rounded_box:
     case sdf_type::ellipsoid:
-    case sdf_type::octahedron:
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction:
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction:
-    case sdf_type::op_round:
-    case sdf_type::op_onion:
-    case sdf_type::op_transform: return false;
+    case sdf_type::octahedron: IMPLICIT_SDF_OPERATOR_CASES return false;
   }
   return false;
 }
