@@ -46,8 +46,11 @@ def main():
         angle = 2 * math.pi * rng.random()
         off = [tube * (math.cos(angle) * x + math.sin(angle) * y) for x, y in zip(a, b)]
         radius = 0.02 + 0.02 * rng.random()
-        spheres.append({"type": "sphere", "radius": round(radius, 4),
-                        "world_from_local": frame_at(*[c + o for c, o in zip(p, off)])})
+        spheres.append((t, {"type": "sphere", "radius": round(radius, 4),
+                            "world_from_local": frame_at(*[c + o for c, o in zip(p, off)])}))
+    # Listed along the knot: the renderer pairs neighbours of a smooth union's
+    # list into a balanced tree, and neighbours in space then prune together.
+    spheres = [sphere for _, sphere in sorted(spheres, key=lambda item: item[0])]
     # Mean spacing of the bubbles: the tube's area per bubble, square-rooted.
     length = sum(math.dist(knot(2 * math.pi * i / 2000), knot(2 * math.pi * (i + 1) / 2000))
                  for i in range(2000))
