@@ -282,21 +282,15 @@ sdf_program make_shapes_program(
 sdf_program make_scene_program(const std::string& filename) {
   auto scene   = load_scene(filename);
   auto program = sdf_program{};
-  auto root    = invalidid;
+  auto roots   = std::vector<int>{};
   for (auto& function : scene.sdfunctions) {
     auto node = append_program(program, function.program);
-    node      = add_transform(program, node, function.local_from_world);
-    if (root != invalidid) {
-      auto op  = sdf_node{};
-      op.type  = sdf_type::op_union;
-      op.left  = root;
-      op.right = node;
-      node     = add_node(program, op);
-    }
-    root = node;
+    roots.push_back(add_transform(program, node, function.local_from_world));
   }
-  if (root == invalidid)
-    throw_io_error(filename, "the scene has no sdfunctions");
+  if (roots.empty()) throw_io_error(filename, "the scene has no sdfunctions");
+  auto op = sdf_node{};
+  op.type = sdf_type::op_union;
+  fold_sdf_operands(program, roots, op);
   return program;
 }
 

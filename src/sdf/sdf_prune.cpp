@@ -419,9 +419,9 @@ std::vector<sdf_program> split_sdf_union(const sdf_program& program) {
     node.frame = (int)part.frames.size() - 1;
     return add_node(part, node);
   };
-  auto parts = std::vector<sdf_program>{};
-  auto rest  = sdf_program{};
-  auto root  = invalidid;
+  auto parts     = std::vector<sdf_program>{};
+  auto rest      = sdf_program{};  // the unbounded operands, one union
+  auto unbounded = std::vector<int>{};
   for (auto& item : operands) {
     auto part = sdf_program{};
     make_part(item, part);
@@ -430,17 +430,14 @@ std::vector<sdf_program> split_sdf_union(const sdf_program& program) {
       parts.push_back(std::move(part));
       continue;
     }
-    auto next = make_part(item, rest);
-    if (root != invalidid) {
-      auto node  = sdf_node{};
-      node.type  = sdf_type::op_union;
-      node.left  = root;
-      node.right = next;
-      next       = add_node(rest, node);
-    }
-    root = next;
+    unbounded.push_back(make_part(item, rest));
   }
-  if (!rest.nodes.empty()) parts.push_back(std::move(rest));
+  if (!unbounded.empty()) {
+    auto op = sdf_node{};
+    op.type = sdf_type::op_union;
+    fold_sdf_operands(rest, unbounded, op);
+    parts.push_back(std::move(rest));
+  }
   return parts;
 }
 
