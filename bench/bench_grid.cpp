@@ -160,10 +160,11 @@ int main(int argc, const char** argv) {
   std::printf("load      %.1f ms (best of 3), accel build %.2f ms\n",
       load_time * 1e3, accel_time * 1e3);
   std::printf(
-      "memory    %.2f MiB per grid (%.2f MiB samples + %.3f MiB bricks)\n",
+      "memory    %.2f MiB per grid (%.2f MiB samples + %.3f MiB skip "
+      "distances)\n",
       grid_memory(grid) / 1048576.0,
       grid.values.size() * sizeof(float) / 1048576.0,
-      grid.brick_ranges.size() * sizeof(grid_brick_range) / 1048576.0);
+      grid.voxel_skips.size() / 1048576.0);
   std::printf(
       "rays      %d views x %d^2 = %zu camera rays (%ld cross the box), "
       "1 thread, grid space\n\n",
@@ -178,7 +179,7 @@ int main(int argc, const char** argv) {
         rate / (sphere.rays / sphere.seconds / 1e6));
   };
   row("sphere tracing (seed)", sphere, "evals");
-  row("exact (bricks+voxels)", exact, "cells");
+  row("exact (skip distances)", exact, "cells");
   std::printf(
       "\nhit/miss disagreements: %ld of %zu rays; mean |t_exact - "
       "t_sphere| = %.4f voxels\n",

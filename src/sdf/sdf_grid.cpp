@@ -9,8 +9,8 @@
 // Intersection Techniques for Iso-Surface Ray Tracing", VMV 2004); the root
 // is then refined with Newton steps kept inside the bracket (bisection when
 // a step leaves it). Empty space is skipped by a 3D-DDA (Amanatides & Woo
-// 1987) over 8^3 bricks with a value range, then over the voxels of the
-// bricks that can hold a crossing.
+// 1987) that jumps over cubes of voxels by a chessboard distance transform
+// (proximity clouds: Cohen & Sheffer 1994).
 
 #include "sdf_grid.h"
 
@@ -41,61 +41,84 @@ std::string check_grid_dims(int64_t nx, int64_t ny, int64_t nz) {
 
 static void voxel_corners(const grid_data& grid, vec3i cell, float v[8]);
 
-// Brick count along an axis of `samples` samples.
-static int brick_count(int samples) {
-  return (samples - 1 + grid_brick_size - 1) / grid_brick_size;
+// Voxels per axis: one fewer than samples.
+static vec3i voxel_dims(vec3i dims) {
+  return {dims.x - 1, dims.y - 1, dims.z - 1};
+}
+
+// row[x] = min(row[x], 1 + min(other[x-1..x+1])): the part of a chamfer
+// pass that comes from a neighbouring row.
+static void relax_from_row(uint8_t* row, const uint8_t* other, int n) {
+  for (auto x = 0; x < n; x++) {
+    auto m = other[x];
+    if (x > 0) m = std::min(m, other[x - 1]);
+    if (x + 1 < n) m = std::min(m, other[x + 1]);
+    row[x] = std::min(row[x], (uint8_t)(m + 1));
+  }
+}
+
+// Chessboard distance transform in place over a box of n voxels (0 at the
+// features, grid_skip_max elsewhere): a forward and a backward raster pass
+// over the 26-neighbourhood with unit steps, which is exact for the
+// chessboard metric (Rosenfeld & Pfaltz 1966). Each pass takes the rows of
+// the previous slice and row at once (they vectorize), then sweeps the row.
+static void chessboard_distances(std::vector<uint8_t>& dist, vec3i n) {
+  auto row = [&](int y, int z) {
+    return dist.data() + (size_t)n.x * ((size_t)y + (size_t)n.y * z);
+  };
+  for (auto z = 0; z < n.z; z++) {
+    for (auto y = 0; y < n.y; y++) {
+      auto r = row(y, z);
+      if (y > 0) relax_from_row(r, row(y - 1, z), n.x);
+      for (auto dy = -1; z > 0 && dy <= 1; dy++)
+        if (y + dy >= 0 && y + dy < n.y)
+          relax_from_row(r, row(y + dy, z - 1), n.x);
+      for (auto x = 1; x < n.x; x++)
+        r[x] = std::min(r[x], (uint8_t)(r[x - 1] + 1));
+    }
+  }
+  for (auto z = n.z - 1; z >= 0; z--) {
+    for (auto y = n.y - 1; y >= 0; y--) {
+      auto r = row(y, z);
+      if (y + 1 < n.y) relax_from_row(r, row(y + 1, z), n.x);
+      for (auto dy = -1; z + 1 < n.z && dy <= 1; dy++)
+        if (y + dy >= 0 && y + dy < n.y)
+          relax_from_row(r, row(y + dy, z + 1), n.x);
+      for (auto x = n.x - 2; x >= 0; x--)
+        r[x] = std::min(r[x], (uint8_t)(r[x + 1] + 1));
+    }
+  }
 }
 
 void update_grid_accel(grid_data& grid) {
-  grid.bricks = {0, 0, 0};
-  grid.brick_ranges.clear();
-  grid.voxel_masks.clear();
+  grid.voxel_skips.clear();
   auto& dims = grid.dims;
   if (!check_grid_dims(dims.x, dims.y, dims.z).empty()) return;
   if ((int64_t)grid.values.size() != grid_samples(dims)) return;
-  grid.bricks = {brick_count(dims.x), brick_count(dims.y), brick_count(dims.z)};
-  grid.brick_ranges.resize(
-      (size_t)grid.bricks.x * (size_t)grid.bricks.y * (size_t)grid.bricks.z);
-  grid.voxel_masks.assign(grid.brick_ranges.size() * grid_brick_mask_words, 0);
-  // A brick's voxels [8b, 8b+7] touch the samples [8b, 8b+8].
-  auto index = size_t{0};
-  for (auto bk = 0; bk < grid.bricks.z; bk++) {
-    for (auto bj = 0; bj < grid.bricks.y; bj++) {
-      for (auto bi = 0; bi < grid.bricks.x; bi++) {
-        auto lo = vec3i{
-            bi * grid_brick_size, bj * grid_brick_size, bk * grid_brick_size};
-        auto hi    = vec3i{std::min(lo.x + grid_brick_size, dims.x - 1),
-            std::min(lo.y + grid_brick_size, dims.y - 1),
-            std::min(lo.z + grid_brick_size, dims.z - 1)};
-        auto range = grid_brick_range{flt_max, flt_lowest};
-        for (auto k = lo.z; k <= hi.z; k++) {
-          for (auto j = lo.y; j <= hi.y; j++) {
-            for (auto i = lo.x; i <= hi.x; i++) {
-              auto v    = grid_value(grid, i, j, k);
-              range.min = std::min(range.min, v);
-              range.max = std::max(range.max, v);
-            }
-          }
-        }
-        // Voxel bits: the corner range of each voxel of the brick.
-        auto masks = grid.voxel_masks.data() + index * grid_brick_mask_words;
-        for (auto k = lo.z; k < hi.z; k++) {
-          for (auto j = lo.y; j < hi.y; j++) {
-            for (auto i = lo.x; i < hi.x; i++) {
-              float v[8];
-              voxel_corners(grid, {i, j, k}, v);
-              auto vmin = *std::min_element(v, v + 8);
-              auto vmax = *std::max_element(v, v + 8);
-              auto bit  = uint64_t{1} << ((i - lo.x) + 8 * (j - lo.y));
-              if (vmin < 0) masks[k - lo.z] |= bit;
-              if (vmax >= 0) masks[grid_brick_size + k - lo.z] |= bit;
-            }
-          }
-        }
-        grid.brick_ranges[index++] = range;
+  // Features: voxels whose corner range holds a value < 0 (outside rays can
+  // cross there) or >= 0 (inside rays can leave): the interpolant stays
+  // within the corner range, so no other voxel holds a crossing.
+  auto n       = voxel_dims(dims);
+  auto outside = std::vector<uint8_t>((size_t)grid_samples(n));
+  auto inside  = std::vector<uint8_t>(outside.size());
+  auto index   = size_t{0};
+  for (auto k = 0; k < n.z; k++) {
+    for (auto j = 0; j < n.y; j++) {
+      for (auto i = 0; i < n.x; i++, index++) {
+        float v[8];
+        voxel_corners(grid, {i, j, k}, v);
+        auto vmin      = *std::min_element(v, v + 8);
+        auto vmax      = *std::max_element(v, v + 8);
+        outside[index] = vmin < 0 ? 0 : (uint8_t)grid_skip_max;
+        inside[index]  = vmax >= 0 ? 0 : (uint8_t)grid_skip_max;
       }
     }
   }
+  chessboard_distances(outside, n);
+  chessboard_distances(inside, n);
+  for (size_t i = 0; i < outside.size(); i++)
+    outside[i] = (uint8_t)(outside[i] | (inside[i] << 4));
+  grid.voxel_skips = std::move(outside);
 }
 
 bool has_grid_accel(const grid_data& grid) {
@@ -104,14 +127,7 @@ bool has_grid_accel(const grid_data& grid) {
   auto& dims = grid.dims;
   if (dims.x < 2 || dims.y < 2 || dims.z < 2) return false;
   if ((int64_t)grid.values.size() != grid_samples(dims)) return false;
-  return grid.bricks.x == brick_count(dims.x) &&
-         grid.bricks.y == brick_count(dims.y) &&
-         grid.bricks.z == brick_count(dims.z) &&
-         grid.brick_ranges.size() == (size_t)grid.bricks.x *
-                                         (size_t)grid.bricks.y *
-                                         (size_t)grid.bricks.z &&
-         grid.voxel_masks.size() ==
-             grid.brick_ranges.size() * grid_brick_mask_words;
+  return (int64_t)grid.voxel_skips.size() == grid_samples(voxel_dims(dims));
 }
 
 grid_data make_grid(vec3i dims, float spacing, vec3f origin, float value) {
@@ -138,8 +154,7 @@ bbox3f grid_bounds(const grid_data& grid) {
 
 size_t grid_memory(const grid_data& grid) {
   return sizeof(grid_data) + grid.values.capacity() * sizeof(float) +
-         grid.brick_ranges.capacity() * sizeof(grid_brick_range) +
-         grid.voxel_masks.capacity() * sizeof(uint64_t);
+         grid.voxel_skips.capacity();
 }
 
 // -----------------------------------------------------------------------------
@@ -422,51 +437,53 @@ struct grid_march {
   bool  inside = false;  // searching for the way out of the solid
 };
 
-// Parameter s where the ray leaves cell `c` (of `size` voxels) along `axis`.
-static float cell_exit(const grid_march& m, int c, int size, int axis) {
+// Parameter s where the ray leaves the voxels [lo, hi] of `axis`.
+static float slab_exit(const grid_march& m, int lo, int hi, int axis) {
   auto d = at(m.du, axis);
   if (d == 0) return flt_max;
-  auto plane = (float)((c + (d > 0 ? 1 : 0)) * size);
+  auto plane = (float)(d > 0 ? hi + 1 : lo);
   return (plane - at(m.u0, axis)) * at(m.inv_du, axis);
 }
 
-// Component of an integer vector (math.h has `at` for vec3f only).
-static int component(vec3i a, int axis) {
-  return axis == 0 ? a.x : axis == 1 ? a.y : a.z;
-}
+// Components of integer vectors (math.h has `at` for vec3f only).
+static int  component(const vec3i& a, int axis) { return (&a.x)[axis]; }
+static int& component(vec3i& a, int axis) { return (&a.x)[axis]; }
 
 // Axis of the smallest of three exits.
 static int min_axis(float ex, float ey, float ez) {
   return ex <= ey ? (ex <= ez ? 0 : 2) : (ey <= ez ? 1 : 2);
 }
 
-// Walk the voxels of brick `brick` over [sa, sb]; true with the hit's s.
-static bool march_brick(const grid_data& grid, const grid_march& m, vec3i brick,
-    const uint64_t* masks, float sa, float sb, float& s_hit, int& steps) {
-  auto lo = vec3i{brick.x * grid_brick_size, brick.y * grid_brick_size,
-      brick.z * grid_brick_size};
-  auto hi = vec3i{std::min(lo.x + grid_brick_size, grid.dims.x - 1) - 1,
-      std::min(lo.y + grid_brick_size, grid.dims.y - 1) - 1,
-      std::min(lo.z + grid_brick_size, grid.dims.z - 1) - 1};
-  auto ua = m.u0 + m.du * sa;
-  auto c  = vec3i{clamp((int)std::floor(ua.x), lo.x, hi.x),
-      clamp((int)std::floor(ua.y), lo.y, hi.y),
-      clamp((int)std::floor(ua.z), lo.z, hi.z)};
-  auto s  = sa;
+// Walk the voxels over [0, m.length]; true with the hit's s. A voxel whose
+// skip distance d is positive starts a jump over the cube of voxels within
+// d-1 steps of it (clipped to the grid), none of which can hold a crossing;
+// a voxel with d = 0 is solved exactly.
+static bool march_grid(
+    const grid_data& grid, const grid_march& m, float& s_hit, int& steps) {
+  auto last = vec3i{grid.dims.x - 2, grid.dims.y - 2, grid.dims.z - 2};
+  auto nx = (size_t)last.x + 1, nxy = nx * ((size_t)last.y + 1);
+  auto shift = m.inside ? 4 : 0;
+  auto c     = vec3i{clamp((int)std::floor(m.u0.x), 0, last.x),
+      clamp((int)std::floor(m.u0.y), 0, last.y),
+      clamp((int)std::floor(m.u0.z), 0, last.z)};
+  auto s     = 0.0f;
   for (;;) {
-    auto ex = cell_exit(m, c.x, 1, 0), ey = cell_exit(m, c.y, 1, 1),
-         ez     = cell_exit(m, c.z, 1, 2);
+    steps++;
+    auto voxel = (size_t)c.x + nx * (size_t)c.y + nxy * (size_t)c.z;
+    auto skip  = (grid.voxel_skips[voxel] >> shift) & 15;
+    auto reach = std::max(skip - 1, 0);
+    auto lo    = vec3i{std::max(c.x - reach, 0), std::max(c.y - reach, 0),
+        std::max(c.z - reach, 0)};
+    auto hi    = vec3i{std::min(c.x + reach, last.x),
+        std::min(c.y + reach, last.y), std::min(c.z + reach, last.z)};
+    auto ex = slab_exit(m, lo.x, hi.x, 0), ey = slab_exit(m, lo.y, hi.y, 1),
+         ez     = slab_exit(m, lo.z, hi.z, 2);
     auto axis   = min_axis(ex, ey, ez);
     auto s_exit = std::max(s, std::min(axis == 0   ? ex
                                        : axis == 1 ? ey
                                                    : ez,
-                                  sb));
-    steps++;
-    // The interpolant stays within the corner range, so a voxel whose
-    // corners are all on the current side can not hold a crossing: its mask
-    // bit is clear, and its corners are not even fetched.
-    auto word = masks[(m.inside ? grid_brick_size : 0) + (c.z - lo.z)];
-    if ((word >> ((c.x - lo.x) + 8 * (c.y - lo.y))) & 1) {
+                                  m.length));
+    if (skip == 0) {
       float v[8];
       voxel_corners(grid, c, v);
       auto origin = m.u0 + m.du * s - vec3f{(float)c.x, (float)c.y, (float)c.z};
@@ -477,49 +494,23 @@ static bool march_brick(const grid_data& grid, const grid_march& m, vec3i brick,
         return true;
       }
     }
-    if (s_exit >= sb) return false;
-    auto& ci = axis == 0 ? c.x : axis == 1 ? c.y : c.z;
-    ci += component(m.step, axis);
-    // Leaving the brick early only happens by rounding; the brick walk
-    // resumes at sb, and a crossing in the tiny gap shows up there as a
-    // crossed value at the start of the next voxel.
-    if (ci < component(lo, axis) || ci > component(hi, axis)) return false;
-    s = s_exit;
-  }
-}
-
-// Walk the bricks over [0, m.length]; true with the hit's s.
-static bool march_grid(
-    const grid_data& grid, const grid_march& m, float& s_hit, int& steps) {
-  auto& nb = grid.bricks;
-  auto  b = vec3i{clamp((int)std::floor(m.u0.x / grid_brick_size), 0, nb.x - 1),
-      clamp((int)std::floor(m.u0.y / grid_brick_size), 0, nb.y - 1),
-      clamp((int)std::floor(m.u0.z / grid_brick_size), 0, nb.z - 1)};
-  auto  s = 0.0f;
-  for (;;) {
-    auto ex     = cell_exit(m, b.x, grid_brick_size, 0),
-         ey     = cell_exit(m, b.y, grid_brick_size, 1),
-         ez     = cell_exit(m, b.z, grid_brick_size, 2);
-    auto axis   = min_axis(ex, ey, ez);
-    auto s_exit = std::max(s, std::min(axis == 0   ? ex
-                                       : axis == 1 ? ey
-                                                   : ez,
-                                  m.length));
-    auto brick =
-        (size_t)b.x + (size_t)nb.x * ((size_t)b.y + (size_t)nb.y * b.z);
-    auto& range = grid.brick_ranges[brick];
-    auto  skip  = m.inside ? range.max < 0 : range.min >= 0;
-    if (skip) {
-      steps++;
-    } else if (march_brick(grid, m, b,
-                   grid.voxel_masks.data() + brick * grid_brick_mask_words, s,
-                   s_exit, s_hit, steps)) {
-      return true;
-    }
     if (s_exit >= m.length) return false;
-    auto& bi = axis == 0 ? b.x : axis == 1 ? b.y : b.z;
-    bi += component(m.step, axis);
-    if (bi < 0 || bi >= component(nb, axis)) return false;
+    // Next voxel: just past the cube on the exit axis; on the others where
+    // the ray is, kept in the cube and never behind the current voxel, so
+    // that every step moves forward whatever the rounding.
+    auto u = m.u0 + m.du * s_exit;
+    for (auto a = 0; a < 3; a++) {
+      auto  step = component(m.step, a);
+      auto& ca   = component(c, a);
+      if (a == axis) {
+        ca = step > 0 ? component(hi, a) + 1 : component(lo, a) - 1;
+        if (ca < 0 || ca > component(last, a)) return false;
+      } else if (step != 0) {
+        auto at_u = clamp(
+            (int)std::floor(at(u, a)), component(lo, a), component(hi, a));
+        ca = step > 0 ? std::max(ca, at_u) : std::min(ca, at_u);
+      }
+    }
     s = s_exit;
   }
 }
@@ -528,7 +519,7 @@ bool intersect_grid(
     const grid_data& grid, const ray3f& ray, float& t, int& steps) {
   steps = 0;
   assert(has_grid_accel(grid) && "call update_grid_accel() first");
-  if (grid.brick_ranges.empty() || !is_grid_usable(grid)) return false;
+  if (grid.voxel_skips.empty() || !is_grid_usable(grid)) return false;
   if (!isfinite(ray.o) || !isfinite(ray.d) || length_squared(ray.d) == 0)
     return false;
 

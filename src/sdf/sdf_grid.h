@@ -15,10 +15,10 @@
 // for a convex set |p-s|^2 >= |p-q|^2 + |q-s|^2 for every s in it.
 //
 // Intersection is exact: the first root of the cubic that the interpolant
-// makes along the ray inside each candidate voxel, found after skipping
-// empty space with a two-level 3D-DDA (8^3 bricks with a value range, then
-// voxels whose 8 corners can not change sign are skipped by a bit mask per
-// brick, without fetching their corners).
+// makes along the ray inside each candidate voxel, found by a 3D-DDA that
+// jumps over empty space: each voxel stores its chessboard distance to the
+// nearest voxel whose 8 corners change sign, so the walk leaves a whole
+// cube of empty voxels in one step without fetching their corners.
 #pragma once
 
 #include <cstddef>
@@ -36,21 +36,15 @@ namespace implicit {
 // GRID DATA
 // -----------------------------------------------------------------------------
 
-// Voxels per brick side in the acceleration data.
-inline constexpr int grid_brick_size = 8;
+// Largest empty-space distance kept per voxel (4 bits each way).
+inline constexpr int grid_skip_max = 15;
 
 // Memory budget of one grid: 2^31 samples (8 GiB of float32). Loaders refuse
 // larger grids before allocating anything.
 inline constexpr int64_t grid_max_samples = int64_t{1} << 31;
 
-// Value range of one brick (its 9^3 samples, fewer at the far border).
-struct grid_brick_range {
-  float min = 0;
-  float max = 0;
-};
-
 // Samples x fastest: value(i,j,k) = values[i + dims.x*(j + dims.y*k)].
-// The brick data is made by update_grid_accel(), which every loader and
+// The skip distances are made by update_grid_accel(), which every loader and
 // maker calls; tracing asserts it is current.
 struct grid_data {
   vec3i              dims    = {0, 0, 0};
@@ -58,18 +52,15 @@ struct grid_data {
   vec3f              origin  = {0, 0, 0};  // file origin, informational only
   std::vector<float> values  = {};
 
-  // Acceleration data (update_grid_accel). Each brick has
-  // grid_brick_mask_words words of voxel bits: the first half marks the
-  // voxels with a corner < 0 (a ray outside the solid may cross there), the
-  // second those with a corner >= 0 (a ray inside may leave there). Voxel
-  // (x,y,z) of a brick is bit x + 8y of word z of each half.
-  vec3i                         bricks       = {0, 0, 0};
-  std::vector<grid_brick_range> brick_ranges = {};
-  std::vector<uint64_t>         voxel_masks  = {};
+  // Acceleration data (update_grid_accel): one byte per voxel, x fastest,
+  // dims-1 voxels per axis. The low 4 bits are the chessboard distance in
+  // voxels to the nearest voxel with a corner < 0 (where a ray outside the
+  // solid may cross), the high 4 bits to the nearest with a corner >= 0
+  // (where a ray inside may leave), both capped at grid_skip_max; voxels
+  // past the grid's box count as empty. A distance d > 0 lets a ray skip the
+  // cube of voxels within d-1 steps of its own without fetching a sample.
+  std::vector<uint8_t> voxel_skips = {};
 };
-
-// Mask words per brick: two halves of one word per voxel slice.
-inline constexpr int grid_brick_mask_words = 2 * grid_brick_size;
 
 // Sample value at integer coordinates (no bounds check beyond asserts).
 inline float grid_value(const grid_data& grid, int i, int j, int k) {
@@ -122,8 +113,8 @@ vec3f eval_grid_gradient_smooth(const grid_data& grid, vec3f p);
 // First crossing of the surface along a grid-space ray in
 // [ray.tmin, ray.tmax] (the direction need not be unit length; t keeps its
 // meaning). A ray that starts inside the solid stops where it leaves it: the
-// interpolant crossing zero or the box exit. `steps` counts the DDA cells
-// visited (each skipped brick once, then each voxel of the other bricks).
+// interpolant crossing zero or the box exit. `steps` counts the DDA steps
+// (each empty cube skipped once, each voxel that may hold a crossing once).
 bool intersect_grid(
     const grid_data& grid, const ray3f& ray, float& t, int& steps);
 

@@ -4,6 +4,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -42,7 +43,7 @@ grid_data sphere_grid(int n, float spacing, float radius, vec3f& center) {
 }
 
 // First t where the interpolant changes sign, by dense sampling along the
-// ray (a reference that knows nothing of voxels or bricks).
+// ray (a reference that knows nothing of voxels or skip distances).
 bool reference_hit(
     const grid_data& grid, const ray3f& ray, float step, float& t_hit) {
   auto in_solid = eval_grid(grid, ray_point(ray, ray.tmin)) < 0;
@@ -163,7 +164,7 @@ TEST_CASE("grid ray hits lie on the interpolant's root") {
 
 TEST_CASE("grid exact intersection agrees with a dense reference march") {
   // A wiggly field with many thin features; the reference samples every
-  // 1/100 voxel and knows nothing of bricks.
+  // 1/100 voxel and knows nothing of skip distances.
   auto spacing = 0.1f;
   auto grid    = sample_grid({37, 29, 41}, spacing, [](vec3f p) {
     return std::sin(3.1f * p.x) * std::cos(2.3f * p.y) +
@@ -201,7 +202,7 @@ TEST_CASE("grid exact intersection agrees with a dense reference march") {
     }
   }
   CHECK(agreed > 150);
-  // Axis-aligned rays running exactly along voxel and brick faces.
+  // Axis-aligned rays running exactly along voxel faces.
   for (auto n = 0; n < 300; n++) {
     auto axis = n % 3;
     auto sign = (n / 3) % 2 ? 1.0f : -1.0f;
@@ -409,35 +410,104 @@ TEST_CASE("grid bake samples an SDF program") {
       bake_grid(sdf_program{}, identity_frame, bounds, 0.1f), io_error);
 }
 
-TEST_CASE("grid voxel masks mark exactly the voxels that can hold a crossing") {
-  // Random values around 0 on a grid whose sides are not whole bricks.
-  auto rng  = make_rng(33);
-  auto grid = sample_grid(
-      {19, 10, 13}, 0.1f, [&](vec3f) { return rand1f(rng) - 0.7f; });
-  REQUIRE(has_grid_accel(grid));
-  auto nb    = grid.bricks;
-  auto value = [&](int i, int j, int k) { return grid_value(grid, i, j, k); };
-  for (auto k = 0; k < grid.dims.z - 1; k++) {
-    for (auto j = 0; j < grid.dims.y - 1; j++) {
-      for (auto i = 0; i < grid.dims.x - 1; i++) {
-        auto vmin = flt_max, vmax = flt_lowest;
-        for (auto c = 0; c < 8; c++) {
-          auto v = value(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
-          vmin   = std::min(vmin, v);
-          vmax   = std::max(vmax, v);
-        }
-        auto b = vec3i{
-            i / grid_brick_size, j / grid_brick_size, k / grid_brick_size};
-        auto brick = (size_t)b.x + (size_t)nb.x * (b.y + (size_t)nb.y * b.z);
-        auto words = grid.voxel_masks.data() + brick * grid_brick_mask_words;
-        auto bit   = (i % 8) + 8 * (j % 8);
-        INFO(i, " ", j, " ", k);
-        CHECK((bool)((words[k % 8] >> bit) & 1) == (vmin < 0));
-        CHECK((bool)((words[8 + k % 8] >> bit) & 1) == (vmax >= 0));
+// Chessboard distance, capped at grid_skip_max, from every voxel to the
+// nearest voxel that `feature` marks, by brute force.
+template <typename F>
+std::vector<int> brute_force_skips(vec3i n, F&& feature) {
+  auto features = std::vector<vec3i>{};
+  for (auto k = 0; k < n.z; k++)
+    for (auto j = 0; j < n.y; j++)
+      for (auto i = 0; i < n.x; i++)
+        if (feature(i, j, k)) features.push_back({i, j, k});
+  auto skips = std::vector<int>{};
+  for (auto k = 0; k < n.z; k++) {
+    for (auto j = 0; j < n.y; j++) {
+      for (auto i = 0; i < n.x; i++) {
+        auto d = grid_skip_max;
+        for (auto f : features)
+          d = std::min(d, std::max({std::abs(f.x - i), std::abs(f.y - j),
+                              std::abs(f.z - k)}));
+        skips.push_back(d);
       }
     }
   }
-  // Stale masks are not current acceleration data.
-  grid.voxel_masks.pop_back();
+  return skips;
+}
+
+TEST_CASE("grid skip distances are chessboard distances to sign changes") {
+  // Dense and sparse negative samples on grids whose sides differ, so that
+  // distances reach the cap, and the far sides of the box are empty.
+  for (auto threshold : {0.7f, 0.995f, 0.9995f}) {
+    auto rng  = make_rng(33);
+    auto grid = sample_grid({19, 10, 13}, 0.1f,
+        [&](vec3f) { return rand1f(rng) < threshold ? 1.0f : -1.0f; });
+    if (threshold > 0.999f)
+      grid = sample_grid({41, 23, 37}, 0.1f, [&](vec3f p) {
+        return length(p - vec3f{0.5f, 0.3f, 0.4f}) - 0.05f;
+      });
+    REQUIRE(has_grid_accel(grid));
+    auto n      = vec3i{grid.dims.x - 1, grid.dims.y - 1, grid.dims.z - 1};
+    auto corner = [&](int i, int j, int k, auto pick) {
+      auto v = grid_value(grid, i, j, k);
+      for (auto c = 1; c < 8; c++)
+        v = pick(v, grid_value(grid, i + (c & 1), j + ((c >> 1) & 1),
+                        k + ((c >> 2) & 1)));
+      return v;
+    };
+    auto low     = [](float a, float b) { return std::min(a, b); };
+    auto high    = [](float a, float b) { return std::max(a, b); };
+    auto outside = brute_force_skips(
+        n, [&](int i, int j, int k) { return corner(i, j, k, low) < 0; });
+    auto inside = brute_force_skips(
+        n, [&](int i, int j, int k) { return corner(i, j, k, high) >= 0; });
+    REQUIRE(grid.voxel_skips.size() == outside.size());
+    auto largest = 0;
+    for (size_t v = 0; v < outside.size(); v++) {
+      INFO(threshold, " voxel ", v);
+      CHECK((grid.voxel_skips[v] & 15) == outside[v]);
+      CHECK((grid.voxel_skips[v] >> 4) == inside[v]);
+      largest = std::max(largest, outside[v]);
+    }
+    if (threshold > 0.999f) CHECK(largest == grid_skip_max);
+  }
+  // Stale distances are not current acceleration data.
+  auto grid = make_grid({5, 6, 7}, 0.1f, {0, 0, 0}, 1);
+  grid.voxel_skips.pop_back();
   CHECK_FALSE(has_grid_accel(grid));
+}
+
+TEST_CASE("grid jumps over empty space without missing small features") {
+  // Small spheres (1.5 voxels) far apart in a large grid: rays aimed at
+  // them from anywhere, also from inside the box, meet the dense
+  // reference; rays through the empty middle take few steps.
+  auto spacing = 0.1f;
+  auto centers = std::vector<vec3f>{{1.1f, 0.8f, 2.3f}, {4.2f, 4.0f, 1.05f},
+      {2.5f, 5.0f, 5.3f}, {0.3f, 5.5f, 0.4f}, {5.6f, 0.25f, 5.5f}};
+  auto grid    = sample_grid({61, 60, 59}, spacing, [&](vec3f p) {
+    auto d = flt_max;
+    for (auto c : centers) d = std::min(d, length(p - c) - 0.15f);
+    return d;
+  });
+  auto rng     = make_rng(7);
+  auto box     = grid_bounds(grid);
+  for (auto n = 0; n < 300; n++) {
+    auto o      = center(box) + (rand3f(rng) - 0.5f) * size(box) * 1.6f;
+    auto target = centers[n % centers.size()] + (rand3f(rng) - 0.5f) * 0.4f;
+    auto ray    = ray3f{o, normalize(target - o), 0, 20};
+    auto t = 0.0f, t_ref = 0.0f;
+    auto steps   = 0;
+    auto hit     = intersect_grid(grid, ray, t, steps);
+    auto step    = spacing / 50;
+    auto ref_hit = reference_hit(grid, ray, step, t_ref);
+    INFO(n);
+    CHECK(hit == ref_hit);
+    if (hit && ref_hit) CHECK(t == doctest::Approx(t_ref).epsilon(step));
+  }
+  // Along the main diagonal (60 voxels, no sphere near it) jumps of up to
+  // 29 voxels: a handful of steps, where a voxel walk takes 178.
+  auto ray   = ray3f{{0, 0.01f, 0}, normalize(vec3f{1, 1, 1}), 0, 20};
+  auto t     = 0.0f;
+  auto steps = 0;
+  CHECK_FALSE(intersect_grid(grid, ray, t, steps));
+  CHECK(steps < 20);
 }

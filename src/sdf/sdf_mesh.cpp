@@ -2,6 +2,8 @@
 
 #include "sdf_mesh.h"
 
+#include <algorithm>
+
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -206,12 +208,11 @@ grid_data mesh_to_grid(
     grid.values[i] = std::copysign(bound, grid.values[i]) - shell;
   }
   update_grid_accel(grid);
-  if (shell <= 0 && grid.brick_ranges.size() != 0) {
+  if (shell <= 0) {
     // Samples lying on the faces of an open mesh come out as -1e-7: only a
     // sample clearly below zero shows an inside.
-    auto inside = false;
-    for (auto& range : grid.brick_ranges)
-      inside = inside || range.min < -1e-3f * voxel;
+    auto inside = std::any_of(grid.values.begin(), grid.values.end(),
+        [&](float v) { return v < -1e-3f * voxel; });
     if (!inside)
       throw io_error(
           "mesh: no sample is inside: the mesh is not closed (its holes let "
