@@ -161,10 +161,10 @@ int main(int argc, const char** argv) {
       load_time * 1e3, accel_time * 1e3);
   std::printf(
       "memory    %.2f MiB per grid (%.2f MiB samples + %.3f MiB skip "
-      "distances)\n",
+      "distances and voxel bits)\n",
       grid_memory(grid) / 1048576.0,
       grid.values.size() * sizeof(float) / 1048576.0,
-      grid.voxel_skips.size() / 1048576.0);
+      (grid.block_skips.size() + grid.voxel_masks.size() * 2) / 1048576.0);
   std::printf(
       "rays      %d views x %d^2 = %zu camera rays (%ld cross the box), "
       "1 thread, grid space\n\n",

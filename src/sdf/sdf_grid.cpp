@@ -9,8 +9,9 @@
 // Intersection Techniques for Iso-Surface Ray Tracing", VMV 2004); the root
 // is then refined with Newton steps kept inside the bracket (bisection when
 // a step leaves it). Empty space is skipped by a 3D-DDA (Amanatides & Woo
-// 1987) that jumps over cubes of voxels by a chessboard distance transform
-// (proximity clouds: Cohen & Sheffer 1994).
+// 1987) that jumps over cubes of 2^3-voxel blocks by a chessboard distance
+// transform (proximity clouds: Cohen & Sheffer 1994), then over the voxels
+// of the blocks that can hold a crossing.
 
 #include "sdf_grid.h"
 
@@ -41,9 +42,9 @@ std::string check_grid_dims(int64_t nx, int64_t ny, int64_t nz) {
 
 static void voxel_corners(const grid_data& grid, vec3i cell, float v[8]);
 
-// Voxels per axis: one fewer than samples.
-static vec3i voxel_dims(vec3i dims) {
-  return {dims.x - 1, dims.y - 1, dims.z - 1};
+// Blocks per axis: ceil(voxels / 2), voxels being one fewer than samples.
+static vec3i block_dims(vec3i dims) {
+  return {dims.x / 2, dims.y / 2, dims.z / 2};
 }
 
 // row[x] = min(row[x], 1 + min(other[x-1..x+1])): the part of a chamfer
@@ -57,7 +58,7 @@ static void relax_from_row(uint8_t* row, const uint8_t* other, int n) {
   }
 }
 
-// Chessboard distance transform in place over a box of n voxels (0 at the
+// Chessboard distance transform in place over a box of n blocks (0 at the
 // features, grid_skip_max elsewhere): a forward and a backward raster pass
 // over the 26-neighbourhood with unit steps, which is exact for the
 // chessboard metric (Rosenfeld & Pfaltz 1966). Each pass takes the rows of
@@ -91,34 +92,42 @@ static void chessboard_distances(std::vector<uint8_t>& dist, vec3i n) {
 }
 
 void update_grid_accel(grid_data& grid) {
-  grid.voxel_skips.clear();
+  grid.block_skips.clear();
+  grid.voxel_masks.clear();
   auto& dims = grid.dims;
   if (!check_grid_dims(dims.x, dims.y, dims.z).empty()) return;
   if ((int64_t)grid.values.size() != grid_samples(dims)) return;
-  // Features: voxels whose corner range holds a value < 0 (outside rays can
-  // cross there) or >= 0 (inside rays can leave): the interpolant stays
-  // within the corner range, so no other voxel holds a crossing.
-  auto n       = voxel_dims(dims);
-  auto outside = std::vector<uint8_t>((size_t)grid_samples(n));
-  auto inside  = std::vector<uint8_t>(outside.size());
-  auto index   = size_t{0};
-  for (auto k = 0; k < n.z; k++) {
-    for (auto j = 0; j < n.y; j++) {
-      for (auto i = 0; i < n.x; i++, index++) {
+  // Voxel bits: the interpolant stays within the corner range, so only a
+  // voxel with a corner < 0 can hold a crossing of a ray outside the solid,
+  // and only one with a corner >= 0 a way out for a ray inside.
+  auto n = block_dims(dims);
+  grid.voxel_masks.assign((size_t)grid_samples(n), 0);
+  for (auto k = 0; k < dims.z - 1; k++) {
+    for (auto j = 0; j < dims.y - 1; j++) {
+      for (auto i = 0; i < dims.x - 1; i++) {
         float v[8];
         voxel_corners(grid, {i, j, k}, v);
-        auto vmin      = *std::min_element(v, v + 8);
-        auto vmax      = *std::max_element(v, v + 8);
-        outside[index] = vmin < 0 ? 0 : (uint8_t)grid_skip_max;
-        inside[index]  = vmax >= 0 ? 0 : (uint8_t)grid_skip_max;
+        auto  bit  = 1 << ((i & 1) + 2 * (j & 1) + 4 * (k & 1));
+        auto& mask = grid.voxel_masks[(size_t)(i / 2) +
+                                      (size_t)n.x * ((size_t)(j / 2) +
+                                                        (size_t)n.y * (k / 2))];
+        if (*std::min_element(v, v + 8) < 0) mask |= bit;
+        if (*std::max_element(v, v + 8) >= 0) mask |= bit << 8;
       }
     }
   }
+  auto outside = std::vector<uint8_t>(grid.voxel_masks.size());
+  auto inside  = std::vector<uint8_t>(grid.voxel_masks.size());
+  for (size_t b = 0; b < outside.size(); b++) {
+    auto mask  = grid.voxel_masks[b];
+    outside[b] = (mask & 0xff) ? 0 : (uint8_t)grid_skip_max;
+    inside[b]  = (mask >> 8) ? 0 : (uint8_t)grid_skip_max;
+  }
   chessboard_distances(outside, n);
   chessboard_distances(inside, n);
-  for (size_t i = 0; i < outside.size(); i++)
-    outside[i] = (uint8_t)(outside[i] | (inside[i] << 4));
-  grid.voxel_skips = std::move(outside);
+  for (size_t b = 0; b < outside.size(); b++)
+    outside[b] = (uint8_t)(outside[b] | (inside[b] << 4));
+  grid.block_skips = std::move(outside);
 }
 
 bool has_grid_accel(const grid_data& grid) {
@@ -127,7 +136,9 @@ bool has_grid_accel(const grid_data& grid) {
   auto& dims = grid.dims;
   if (dims.x < 2 || dims.y < 2 || dims.z < 2) return false;
   if ((int64_t)grid.values.size() != grid_samples(dims)) return false;
-  return (int64_t)grid.voxel_skips.size() == grid_samples(voxel_dims(dims));
+  auto blocks = grid_samples(block_dims(dims));
+  return (int64_t)grid.block_skips.size() == blocks &&
+         (int64_t)grid.voxel_masks.size() == blocks;
 }
 
 grid_data make_grid(vec3i dims, float spacing, vec3f origin, float value) {
@@ -154,7 +165,8 @@ bbox3f grid_bounds(const grid_data& grid) {
 
 size_t grid_memory(const grid_data& grid) {
   return sizeof(grid_data) + grid.values.capacity() * sizeof(float) +
-         grid.voxel_skips.capacity();
+         grid.block_skips.capacity() +
+         grid.voxel_masks.capacity() * sizeof(uint16_t);
 }
 
 // -----------------------------------------------------------------------------
@@ -454,14 +466,25 @@ static int min_axis(float ex, float ey, float ez) {
   return ex <= ey ? (ex <= ez ? 0 : 2) : (ey <= ez ? 1 : 2);
 }
 
-// Walk the voxels over [0, m.length]; true with the hit's s. A voxel whose
-// skip distance d is positive starts a jump over the cube of voxels within
-// d-1 steps of it (clipped to the grid), none of which can hold a crossing;
-// a voxel with d = 0 is solved exactly.
+// Bit of voxel `c` in the voxel masks: for a ray inside the solid (a corner
+// >= 0) or outside it (a corner < 0).
+static bool voxel_bit(const grid_data& grid, vec3i c, bool inside) {
+  auto nb    = block_dims(grid.dims);
+  auto block = (size_t)(c.x >> 1) +
+               (size_t)nb.x * ((size_t)(c.y >> 1) + (size_t)nb.y * (c.z >> 1));
+  auto bit = (c.x & 1) + 2 * (c.y & 1) + 4 * (c.z & 1) + (inside ? 8 : 0);
+  return (grid.voxel_masks[block] >> bit) & 1;
+}
+
+// Walk the voxels over [0, m.length]; true with the hit's s. In a block
+// whose skip distance d is positive the walk jumps over the cube of blocks
+// within d-1 steps of it (clipped to the grid), none of which can hold a
+// crossing; in the others it steps voxel by voxel and solves those whose
+// bit is set.
 static bool march_grid(
     const grid_data& grid, const grid_march& m, float& s_hit, int& steps) {
-  auto last = vec3i{grid.dims.x - 2, grid.dims.y - 2, grid.dims.z - 2};
-  auto nx = (size_t)last.x + 1, nxy = nx * ((size_t)last.y + 1);
+  auto last  = vec3i{grid.dims.x - 2, grid.dims.y - 2, grid.dims.z - 2};
+  auto nb    = block_dims(grid.dims);
   auto shift = m.inside ? 4 : 0;
   auto c     = vec3i{clamp((int)std::floor(m.u0.x), 0, last.x),
       clamp((int)std::floor(m.u0.y), 0, last.y),
@@ -469,13 +492,19 @@ static bool march_grid(
   auto s     = 0.0f;
   for (;;) {
     steps++;
-    auto voxel = (size_t)c.x + nx * (size_t)c.y + nxy * (size_t)c.z;
-    auto skip  = (grid.voxel_skips[voxel] >> shift) & 15;
-    auto reach = std::max(skip - 1, 0);
-    auto lo    = vec3i{std::max(c.x - reach, 0), std::max(c.y - reach, 0),
-        std::max(c.z - reach, 0)};
-    auto hi    = vec3i{std::min(c.x + reach, last.x),
-        std::min(c.y + reach, last.y), std::min(c.z + reach, last.z)};
+    auto b = vec3i{c.x >> 1, c.y >> 1, c.z >> 1};
+    auto block =
+        (size_t)b.x + (size_t)nb.x * ((size_t)b.y + (size_t)nb.y * b.z);
+    auto skip = (grid.block_skips[block] >> shift) & 15;
+    auto lo = c, hi = c;
+    if (skip > 0) {
+      auto reach = skip - 1;
+      lo = vec3i{std::max(b.x - reach, 0) * 2, std::max(b.y - reach, 0) * 2,
+          std::max(b.z - reach, 0) * 2};
+      hi = vec3i{std::min((b.x + reach) * 2 + 1, last.x),
+          std::min((b.y + reach) * 2 + 1, last.y),
+          std::min((b.z + reach) * 2 + 1, last.z)};
+    }
     auto ex = slab_exit(m, lo.x, hi.x, 0), ey = slab_exit(m, lo.y, hi.y, 1),
          ez     = slab_exit(m, lo.z, hi.z, 2);
     auto axis   = min_axis(ex, ey, ez);
@@ -483,7 +512,7 @@ static bool march_grid(
                                        : axis == 1 ? ey
                                                    : ez,
                                   m.length));
-    if (skip == 0) {
+    if (skip == 0 && voxel_bit(grid, c, m.inside)) {
       float v[8];
       voxel_corners(grid, c, v);
       auto origin = m.u0 + m.du * s - vec3f{(float)c.x, (float)c.y, (float)c.z};
@@ -498,16 +527,18 @@ static bool march_grid(
     // Next voxel: just past the cube on the exit axis; on the others where
     // the ray is, kept in the cube and never behind the current voxel, so
     // that every step moves forward whatever the rounding.
-    auto u = m.u0 + m.du * s_exit;
-    for (auto a = 0; a < 3; a++) {
-      auto  step = component(m.step, a);
-      auto& ca   = component(c, a);
-      if (a == axis) {
-        ca = step > 0 ? component(hi, a) + 1 : component(lo, a) - 1;
-        if (ca < 0 || ca > component(last, a)) return false;
-      } else if (step != 0) {
-        auto at_u = clamp(
-            (int)std::floor(at(u, a)), component(lo, a), component(hi, a));
+    auto& ce = component(c, axis);
+    ce       = component(m.step, axis) > 0 ? component(hi, axis) + 1
+                                           : component(lo, axis) - 1;
+    if (ce < 0 || ce > component(last, axis)) return false;
+    if (skip > 0) {
+      auto u = m.u0 + m.du * s_exit;
+      for (auto a = 0; a < 3; a++) {
+        auto step = component(m.step, a);
+        if (a == axis || step == 0) continue;
+        auto& ca   = component(c, a);
+        auto  at_u = clamp(
+             (int)std::floor(at(u, a)), component(lo, a), component(hi, a));
         ca = step > 0 ? std::max(ca, at_u) : std::min(ca, at_u);
       }
     }
@@ -519,7 +550,7 @@ bool intersect_grid(
     const grid_data& grid, const ray3f& ray, float& t, int& steps) {
   steps = 0;
   assert(has_grid_accel(grid) && "call update_grid_accel() first");
-  if (grid.voxel_skips.empty() || !is_grid_usable(grid)) return false;
+  if (grid.block_skips.empty() || !is_grid_usable(grid)) return false;
   if (!isfinite(ray.o) || !isfinite(ray.d) || length_squared(ray.d) == 0)
     return false;
 
@@ -550,12 +581,17 @@ bool intersect_grid(
   // State at t0: a ray that enters the box where the interpolant is
   // negative hits the box face; one that starts inside the solid searches
   // for its way out.
+  // Without a corner < 0 (the voxel's bit clear) the value is >= 0 and the
+  // corners need not be fetched.
   auto cell  = vec3i{};
   auto local = vec3f{};
   locate_voxel(grid, p0, cell, local);
-  float v[8];
-  voxel_corners(grid, cell, v);
-  auto g0      = trilinear(v, local);
+  auto g0 = 0.0f;
+  if (voxel_bit(grid, cell, false)) {
+    float v[8];
+    voxel_corners(grid, cell, v);
+    g0 = trilinear(v, local);
+  }
   auto entered = b0 > ray.tmin;
   if (g0 < 0 && entered) {
     t     = t0;

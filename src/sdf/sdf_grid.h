@@ -16,9 +16,11 @@
 //
 // Intersection is exact: the first root of the cubic that the interpolant
 // makes along the ray inside each candidate voxel, found by a 3D-DDA that
-// jumps over empty space: each voxel stores its chessboard distance to the
-// nearest voxel whose 8 corners change sign, so the walk leaves a whole
-// cube of empty voxels in one step without fetching their corners.
+// jumps over empty space: each block of 2^3 voxels stores its chessboard
+// distance to the nearest block with a voxel whose corners change sign, so
+// the walk leaves a whole cube of empty blocks in one step; in the other
+// blocks a bit per voxel skips those that can not hold a crossing, without
+// fetching their corners.
 #pragma once
 
 #include <cstddef>
@@ -36,7 +38,7 @@ namespace implicit {
 // GRID DATA
 // -----------------------------------------------------------------------------
 
-// Largest empty-space distance kept per voxel (4 bits each way).
+// Largest empty-space distance kept per block (4 bits each way).
 inline constexpr int grid_skip_max = 15;
 
 // Memory budget of one grid: 2^31 samples (8 GiB of float32). Loaders refuse
@@ -52,14 +54,18 @@ struct grid_data {
   vec3f              origin  = {0, 0, 0};  // file origin, informational only
   std::vector<float> values  = {};
 
-  // Acceleration data (update_grid_accel): one byte per voxel, x fastest,
-  // dims-1 voxels per axis. The low 4 bits are the chessboard distance in
-  // voxels to the nearest voxel with a corner < 0 (where a ray outside the
-  // solid may cross), the high 4 bits to the nearest with a corner >= 0
-  // (where a ray inside may leave), both capped at grid_skip_max; voxels
-  // past the grid's box count as empty. A distance d > 0 lets a ray skip the
-  // cube of voxels within d-1 steps of its own without fetching a sample.
-  std::vector<uint8_t> voxel_skips = {};
+  // Acceleration data (update_grid_accel), over blocks of 2x2x2 voxels (x
+  // fastest, dims/2 blocks per axis; voxels past the box count as empty).
+  // voxel_masks: bit x + 2y + 4z marks the block's voxels with a corner < 0
+  // (a ray outside the solid may cross there), bit 8 + x + 2y + 4z those
+  // with a corner >= 0 (a ray inside may leave there). block_skips: the
+  // chessboard distance, in blocks, to the nearest block with a bit of the
+  // first kind (low 4 bits) and of the second (high 4 bits), capped at
+  // grid_skip_max. A distance d > 0 lets a ray skip the cube of blocks
+  // within d-1 steps of its own without fetching a sample. Both fit in
+  // cache next to the samples (3 bytes per 8 voxels).
+  std::vector<uint8_t>  block_skips = {};
+  std::vector<uint16_t> voxel_masks = {};
 };
 
 // Sample value at integer coordinates (no bounds check beyond asserts).

@@ -410,8 +410,8 @@ TEST_CASE("grid bake samples an SDF program") {
       bake_grid(sdf_program{}, identity_frame, bounds, 0.1f), io_error);
 }
 
-// Chessboard distance, capped at grid_skip_max, from every voxel to the
-// nearest voxel that `feature` marks, by brute force.
+// Chessboard distance, capped at grid_skip_max, from every cell of a box
+// of n cells to the nearest cell that `feature` marks, by brute force.
 template <typename F>
 std::vector<int> brute_force_skips(vec3i n, F&& feature) {
   auto features = std::vector<vec3i>{};
@@ -434,45 +434,62 @@ std::vector<int> brute_force_skips(vec3i n, F&& feature) {
   return skips;
 }
 
-TEST_CASE("grid skip distances are chessboard distances to sign changes") {
-  // Dense and sparse negative samples on grids whose sides differ, so that
-  // distances reach the cap, and the far sides of the box are empty.
-  for (auto threshold : {0.7f, 0.995f, 0.9995f}) {
-    auto rng  = make_rng(33);
-    auto grid = sample_grid({19, 10, 13}, 0.1f,
-        [&](vec3f) { return rand1f(rng) < threshold ? 1.0f : -1.0f; });
-    if (threshold > 0.999f)
-      grid = sample_grid({41, 23, 37}, 0.1f, [&](vec3f p) {
+TEST_CASE("grid voxel bits and block skip distances") {
+  // Dense and sparse negative samples, and one small sphere in a larger
+  // grid (distances reach the cap); odd and even sides, so that some blocks
+  // hang over the box.
+  for (auto kind = 0; kind < 3; kind++) {
+    auto rng       = make_rng(33);
+    auto threshold = kind == 0 ? 0.7f : 0.995f;
+    auto grid      = sample_grid({19, 10, 13}, 0.1f,
+             [&](vec3f) { return rand1f(rng) < threshold ? 1.0f : -1.0f; });
+    if (kind == 2)
+      grid = sample_grid({72, 23, 37}, 0.1f, [&](vec3f p) {
         return length(p - vec3f{0.5f, 0.3f, 0.4f}) - 0.05f;
       });
     REQUIRE(has_grid_accel(grid));
-    auto n      = vec3i{grid.dims.x - 1, grid.dims.y - 1, grid.dims.z - 1};
-    auto corner = [&](int i, int j, int k, auto pick) {
-      auto v = grid_value(grid, i, j, k);
-      for (auto c = 1; c < 8; c++)
-        v = pick(v, grid_value(grid, i + (c & 1), j + ((c >> 1) & 1),
-                        k + ((c >> 2) & 1)));
-      return v;
+    // A voxel may hold a crossing of an outside ray where a corner is < 0,
+    // of an inside ray where a corner is >= 0.
+    auto corners = [&](int i, int j, int k, bool outside) {
+      for (auto c = 0; c < 8; c++) {
+        auto v = grid_value(
+            grid, i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
+        if (outside ? v < 0 : v >= 0) return true;
+      }
+      return false;
     };
-    auto low     = [](float a, float b) { return std::min(a, b); };
-    auto high    = [](float a, float b) { return std::max(a, b); };
-    auto outside = brute_force_skips(
-        n, [&](int i, int j, int k) { return corner(i, j, k, low) < 0; });
-    auto inside = brute_force_skips(
-        n, [&](int i, int j, int k) { return corner(i, j, k, high) >= 0; });
-    REQUIRE(grid.voxel_skips.size() == outside.size());
-    auto largest = 0;
-    for (size_t v = 0; v < outside.size(); v++) {
-      INFO(threshold, " voxel ", v);
-      CHECK((grid.voxel_skips[v] & 15) == outside[v]);
-      CHECK((grid.voxel_skips[v] >> 4) == inside[v]);
-      largest = std::max(largest, outside[v]);
+    auto nv = vec3i{grid.dims.x - 1, grid.dims.y - 1, grid.dims.z - 1};
+    auto nb = vec3i{(nv.x + 1) / 2, (nv.y + 1) / 2, (nv.z + 1) / 2};
+    REQUIRE(grid.voxel_masks.size() == (size_t)nb.x * nb.y * nb.z);
+    for (auto side = 0; side < 2; side++) {
+      auto block_has = [&](int bi, int bj, int bk) {
+        auto any = false;
+        for (auto c = 0; c < 8; c++) {
+          auto i = 2 * bi + (c & 1), j = 2 * bj + ((c >> 1) & 1),
+               k      = 2 * bk + ((c >> 2) & 1);
+          auto in_box = i < nv.x && j < nv.y && k < nv.z;
+          auto mark   = in_box && corners(i, j, k, side == 0);
+          auto block  = (size_t)bi + (size_t)nb.x * (bj + (size_t)nb.y * bk);
+          INFO(kind, " side ", side, " voxel ", i, " ", j, " ", k);
+          CHECK(
+              (bool)((grid.voxel_masks[block] >> (c + 8 * side)) & 1) == mark);
+          any = any || mark;
+        }
+        return any;
+      };
+      auto skips   = brute_force_skips(nb, block_has);
+      auto largest = 0;
+      for (size_t b = 0; b < skips.size(); b++) {
+        INFO(kind, " side ", side, " block ", b);
+        CHECK(((grid.block_skips[b] >> (4 * side)) & 15) == skips[b]);
+        largest = std::max(largest, skips[b]);
+      }
+      if (kind == 2 && side == 0) CHECK(largest == grid_skip_max);
     }
-    if (threshold > 0.999f) CHECK(largest == grid_skip_max);
   }
-  // Stale distances are not current acceleration data.
+  // Stale data is not current acceleration data.
   auto grid = make_grid({5, 6, 7}, 0.1f, {0, 0, 0}, 1);
-  grid.voxel_skips.pop_back();
+  grid.block_skips.pop_back();
   CHECK_FALSE(has_grid_accel(grid));
 }
 
@@ -504,7 +521,7 @@ TEST_CASE("grid jumps over empty space without missing small features") {
     if (hit && ref_hit) CHECK(t == doctest::Approx(t_ref).epsilon(step));
   }
   // Along the main diagonal (60 voxels, no sphere near it) jumps of up to
-  // 29 voxels: a handful of steps, where a voxel walk takes 178.
+  // 29 blocks: a handful of steps, where a voxel walk takes 178.
   auto ray   = ray3f{{0, 0.01f, 0}, normalize(vec3f{1, 1, 1}), 0, 20};
   auto t     = 0.0f;
   auto steps = 0;
