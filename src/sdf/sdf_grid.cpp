@@ -47,6 +47,15 @@ static vec3i block_dims(vec3i dims) {
   return {dims.x / 2, dims.y / 2, dims.z / 2};
 }
 
+// Block of voxel c (nb blocks per axis), and c's bit in the block's masks.
+static size_t block_index(vec3i nb, vec3i c) {
+  return (size_t)(c.x >> 1) +
+         (size_t)nb.x * ((size_t)(c.y >> 1) + (size_t)nb.y * (c.z >> 1));
+}
+static int voxel_bit(vec3i c) {
+  return (c.x & 1) + 2 * (c.y & 1) + 4 * (c.z & 1);
+}
+
 // row[x] = min(row[x], 1 + min(other[x-1..x+1])): the part of a chamfer
 // pass that comes from a neighbouring row.
 static void relax_from_row(uint8_t* row, const uint8_t* other, int n) {
@@ -107,10 +116,8 @@ void update_grid_accel(grid_data& grid) {
       for (auto i = 0; i < dims.x - 1; i++) {
         float v[8];
         voxel_corners(grid, {i, j, k}, v);
-        auto  bit  = 1 << ((i & 1) + 2 * (j & 1) + 4 * (k & 1));
-        auto& mask = grid.voxel_masks[(size_t)(i / 2) +
-                                      (size_t)n.x * ((size_t)(j / 2) +
-                                                        (size_t)n.y * (k / 2))];
+        auto  bit  = 1 << voxel_bit({i, j, k});
+        auto& mask = grid.voxel_masks[block_index(n, {i, j, k})];
         if (*std::min_element(v, v + 8) < 0) mask |= bit;
         if (*std::max_element(v, v + 8) >= 0) mask |= bit << 8;
       }
@@ -461,21 +468,6 @@ static float slab_exit(const grid_march& m, int lo, int hi, int axis) {
 static int  component(const vec3i& a, int axis) { return (&a.x)[axis]; }
 static int& component(vec3i& a, int axis) { return (&a.x)[axis]; }
 
-// Axis of the smallest of three exits.
-static int min_axis(float ex, float ey, float ez) {
-  return ex <= ey ? (ex <= ez ? 0 : 2) : (ey <= ez ? 1 : 2);
-}
-
-// Bit of voxel `c` in the voxel masks: for a ray inside the solid (a corner
-// >= 0) or outside it (a corner < 0).
-static bool voxel_bit(const grid_data& grid, vec3i c, bool inside) {
-  auto nb    = block_dims(grid.dims);
-  auto block = (size_t)(c.x >> 1) +
-               (size_t)nb.x * ((size_t)(c.y >> 1) + (size_t)nb.y * (c.z >> 1));
-  auto bit = (c.x & 1) + 2 * (c.y & 1) + 4 * (c.z & 1) + (inside ? 8 : 0);
-  return (grid.voxel_masks[block] >> bit) & 1;
-}
-
 // Walk the voxels over [0, m.length]; true with the hit's s. In a block
 // whose skip distance d is positive the walk jumps over the cube of blocks
 // within d-1 steps of it (clipped to the grid), none of which can hold a
@@ -492,27 +484,24 @@ static bool march_grid(
   auto s     = 0.0f;
   for (;;) {
     steps++;
-    auto b = vec3i{c.x >> 1, c.y >> 1, c.z >> 1};
-    auto block =
-        (size_t)b.x + (size_t)nb.x * ((size_t)b.y + (size_t)nb.y * b.z);
-    auto skip = (grid.block_skips[block] >> shift) & 15;
-    auto lo = c, hi = c;
-    if (skip > 0) {
-      auto reach = skip - 1;
-      lo = vec3i{std::max(b.x - reach, 0) * 2, std::max(b.y - reach, 0) * 2,
-          std::max(b.z - reach, 0) * 2};
-      hi = vec3i{std::min((b.x + reach) * 2 + 1, last.x),
-          std::min((b.y + reach) * 2 + 1, last.y),
-          std::min((b.z + reach) * 2 + 1, last.z)};
-    }
+    auto b     = vec3i{c.x >> 1, c.y >> 1, c.z >> 1};
+    auto block = block_index(nb, c);
+    auto skip  = (grid.block_skips[block] >> shift) & 15;
+    // Cube of blocks within skip-1 of b (in voxels), or voxel c alone.
+    auto reach = skip - 1;
+    auto lo    = vec3i{skip ? std::max(b.x - reach, 0) * 2 : c.x,
+        skip ? std::max(b.y - reach, 0) * 2 : c.y,
+        skip ? std::max(b.z - reach, 0) * 2 : c.z};
+    auto hi = vec3i{skip ? std::min((b.x + reach) * 2 + 1, last.x) : c.x,
+        skip ? std::min((b.y + reach) * 2 + 1, last.y) : c.y,
+        skip ? std::min((b.z + reach) * 2 + 1, last.z) : c.z};
     auto ex = slab_exit(m, lo.x, hi.x, 0), ey = slab_exit(m, lo.y, hi.y, 1),
          ez     = slab_exit(m, lo.z, hi.z, 2);
-    auto axis   = min_axis(ex, ey, ez);
-    auto s_exit = std::max(s, std::min(axis == 0   ? ex
-                                       : axis == 1 ? ey
-                                                   : ez,
-                                  m.length));
-    if (skip == 0 && voxel_bit(grid, c, m.inside)) {
+    auto e      = std::min(ex, std::min(ey, ez));
+    auto axis   = e == ex ? 0 : (e == ey ? 1 : 2);
+    auto s_exit = std::max(s, std::min(e, m.length));
+    auto bit    = voxel_bit(c) + (m.inside ? 8 : 0);
+    if (skip == 0 && ((grid.voxel_masks[block] >> bit) & 1)) {
       float v[8];
       voxel_corners(grid, c, v);
       auto origin = m.u0 + m.du * s - vec3f{(float)c.x, (float)c.y, (float)c.z};
@@ -536,10 +525,10 @@ static bool march_grid(
       for (auto a = 0; a < 3; a++) {
         auto step = component(m.step, a);
         if (a == axis || step == 0) continue;
-        auto& ca   = component(c, a);
-        auto  at_u = clamp(
-             (int)std::floor(at(u, a)), component(lo, a), component(hi, a));
-        ca = step > 0 ? std::max(ca, at_u) : std::min(ca, at_u);
+        auto& ca = component(c, a);
+        // Truncation is floor here: negative values clamp to lo >= 0.
+        auto at_u = clamp((int)at(u, a), component(lo, a), component(hi, a));
+        ca        = step > 0 ? std::max(ca, at_u) : std::min(ca, at_u);
       }
     }
     s = s_exit;
@@ -586,8 +575,9 @@ bool intersect_grid(
   auto cell  = vec3i{};
   auto local = vec3f{};
   locate_voxel(grid, p0, cell, local);
-  auto g0 = 0.0f;
-  if (voxel_bit(grid, cell, false)) {
+  auto g0    = 0.0f;
+  auto block = block_index(block_dims(grid.dims), cell);
+  if ((grid.voxel_masks[block] >> voxel_bit(cell)) & 1) {
     float v[8];
     voxel_corners(grid, cell, v);
     g0 = trilinear(v, local);
