@@ -11,6 +11,7 @@
 // parameter checks on an sdf_node.
 #pragma once
 
+#include <algorithm>
 #include <sstream>
 
 #include "../math/math.h"
@@ -324,6 +325,54 @@ inline bool intersect_sphere(
   t1 = q / a;
   if (t0 > t1) std::swap(t0, t1);
   return true;
+}
+
+// Crossings of a ray with the surface of the seed's capped cone (axis y,
+// y in [-height, height], radius r1 at the bottom and r2 at the top), in
+// increasing t over the whole line: `count` of them (0, or 2 for a convex
+// solid, more only where the rim is met twice by rounding). The side is
+// x^2 + z^2 = (a + b y)^2 with b = (r2 - r1) / (2 height), a = r(0); a
+// small tolerance at the rim keeps rays from slipping between side and cap.
+inline int intersect_capped_cone(
+    const ray3f& ray, float height, float r1, float r2, float crossings[4]) {
+  auto& o = ray.o;
+  auto& d = ray.d;
+  auto  b = (r2 - r1) / (2 * height), a = 0.5f * (r1 + r2);
+  auto  rim   = 1e-5f * std::max(height, std::max(r1, r2));
+  auto  count = 0;
+  auto  add   = [&](float t) {
+    if (std::isfinite(t)) crossings[count++] = t;
+  };
+  // Side: A t^2 + 2 B t + C = 0, roots kept where y is within the caps.
+  auto ra      = a + b * o.y;
+  auto qa      = d.x * d.x + d.z * d.z - b * b * d.y * d.y;
+  auto qb      = o.x * d.x + o.z * d.z - b * d.y * ra;
+  auto qc      = o.x * o.x + o.z * o.z - ra * ra;
+  auto on_side = [&](float t) {
+    return std::abs(o.y + t * d.y) <= height + rim;
+  };
+  if (qa != 0) {
+    auto disc = qb * qb - qa * qc;
+    if (disc >= 0) {
+      // Stable roots: q = -(B + sign(B) sqrt(disc)), t = q / A and C / q.
+      auto q = -(qb + std::copysign(std::sqrt(disc), qb));
+      if (on_side(q / qa)) add(q / qa);
+      if (q != 0 && on_side(qc / q)) add(qc / q);
+    }
+  } else if (qb != 0 && on_side(-qc / (2 * qb))) {
+    add(-qc / (2 * qb));
+  }
+  // Caps: y = -height (radius r1) and y = +height (radius r2).
+  if (d.y != 0) {
+    for (auto side : {-1.0f, 1.0f}) {
+      auto t = (side * height - o.y) / d.y;
+      auto x = o.x + t * d.x, z = o.z + t * d.z;
+      auto r = (side < 0 ? r1 : r2) + rim;
+      if (x * x + z * z <= r * r) add(t);
+    }
+  }
+  std::sort(crossings, crossings + count);
+  return count;
 }
 
 }  // namespace implicit

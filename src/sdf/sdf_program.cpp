@@ -486,7 +486,7 @@ bool has_exact_intersection(const sdf_program& program) {
   if (program.nodes.size() != 1) return false;
   auto type = program.nodes[0].type;
   return type == sdf_type::sphere || type == sdf_type::box ||
-         type == sdf_type::plane;
+         type == sdf_type::plane || type == sdf_type::capped_cone;
 }
 
 // First of the two roots t0 <= t1 that lies in [tmin, tmax].
@@ -527,9 +527,18 @@ bool intersect_sdf_exact(
       if (hit) t = tp;
       return true;
     }
+    case sdf_type::capped_cone: {
+      float crossings[4];
+      auto  count = intersect_capped_cone(
+           ray, node.height, node.radius, node.radius2, crossings);
+      for (auto i = 0; i < count && !hit; i++) {
+        hit = crossings[i] >= ray.tmin && crossings[i] <= ray.tmax;
+        if (hit) t = crossings[i];
+      }
+      return true;
+    }
     case sdf_type::bbox:
     case sdf_type::torus:
-    case sdf_type::capped_cone:
     case sdf_type::capsule:
     case sdf_type::cylinder:
     case sdf_type::rounded_box:

@@ -227,6 +227,75 @@ TEST_CASE("sdf programs: gradients") {
   CHECK(tg.y == doctest::Approx(1.0f));
 }
 
+TEST_CASE("sdf programs: exact capped cone matches the sign of its SDF") {
+  // Frustum, pointed cone, cylinder and an upside-down frustum; rays from
+  // around and inside toward the solid, against a dense march of the sign.
+  auto rng = make_rng(11);
+  for (auto radii : {vec2f{0.1f, 0.02f}, vec2f{0.3f, 0}, vec2f{0.2f, 0.2f},
+           vec2f{0, 0.25f}}) {
+    auto cone    = make_node(sdf_type::capped_cone);
+    cone.height  = 0.1f;
+    cone.radius  = radii.x;
+    cone.radius2 = radii.y;
+    REQUIRE(has_exact_intersection(make_primitive_program(cone)));
+    auto inside_solid = [&](vec3f p) { return eval_primitive(cone, p) < 0; };
+    auto hits = 0, agreed = 0;
+    for (auto n = 0; n < 400; n++) {
+      auto o = vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} * 1.2f -
+               vec3f{0.6f, 0.6f, 0.6f};
+      if (n % 4 == 0) o = o * 0.1f;  // often inside
+      auto target =
+          vec3f{rand1f(rng) - 0.5f, rand1f(rng) - 0.5f, rand1f(rng) - 0.5f} *
+          0.6f;
+      auto ray =
+          ray3f{o, normalize(target - o) * (0.5f + rand1f(rng)), 0, flt_max};
+      auto hit = false;
+      auto t   = 0.0f;
+      REQUIRE(intersect_sdf_exact(cone, ray, hit, t));
+      // Reference: the first change of sign, sampled every 1e-4.
+      auto step    = 1e-4f / length(ray.d);
+      auto start   = inside_solid(ray.o);
+      auto ref_hit = false;
+      auto ref_t   = 0.0f;
+      for (auto s = step; s < 2 / length(ray.d) && !ref_hit; s += step) {
+        if (inside_solid(ray_point(ray, s)) != start) {
+          ref_hit = true;
+          ref_t   = s;
+        }
+      }
+      INFO(radii.x, " ", radii.y, " ray ", n);
+      // A graze thinner than the sampling may be found by the exact one.
+      if (ref_hit) {
+        REQUIRE(hit);
+        CHECK(std::abs(t - ref_t) <= 2 * step);
+      }
+      if (hit) {
+        hits++;
+        CHECK(std::abs(eval_primitive(cone, ray_point(ray, t))) < 1e-5f);
+        agreed += ref_hit;
+      }
+    }
+    CHECK(hits > 100);
+    CHECK(agreed >= hits - 2);
+  }
+  // Within [tmin, tmax] only: a ray from outside with tmax before the cone,
+  // and the exit of one starting inside.
+  auto cone    = make_node(sdf_type::capped_cone);
+  cone.height  = 1;
+  cone.radius  = 1;
+  cone.radius2 = 0.5f;
+  auto hit     = false;
+  auto t       = 0.0f;
+  intersect_sdf_exact(cone, {{0, 0, -5}, {0, 0, 1}, 0, 4}, hit, t);
+  CHECK(!hit);
+  intersect_sdf_exact(cone, {{0, 0, -5}, {0, 0, 1}, 0, flt_max}, hit, t);
+  CHECK(hit);
+  CHECK(t == doctest::Approx(4.25f));  // radius 0.75 at y = 0
+  intersect_sdf_exact(cone, {{0, 0, 0}, {0, 1, 0}, 0, flt_max}, hit, t);
+  CHECK(hit);
+  CHECK(t == doctest::Approx(1.0f));  // the top cap
+}
+
 TEST_CASE("sdf programs: exact intersections") {
   auto sphere   = make_node(sdf_type::sphere);
   sphere.radius = 1;
