@@ -204,7 +204,8 @@ static march_result march_object(const accel_data& accel,
     case object_kind::function: {
       if (object.single) {
         // One loop per primitive, its node's fields captured by value. Box,
-        // sphere and plane are solved in closed form before this.
+        // sphere, plane and capped cone are solved in closed form before
+        // this.
         auto node = object.shape;
 #define IMPLICIT_SDF_MARCH(id, name) \
   case sdf_type::id:                 \
