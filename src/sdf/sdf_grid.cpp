@@ -103,7 +103,8 @@ static void chessboard_distances(std::vector<uint8_t>& dist, vec3i n) {
 void update_grid_accel(grid_data& grid) {
   grid.block_skips.clear();
   grid.voxel_masks.clear();
-  auto& dims = grid.dims;
+  grid.solid_bounds = invalid_bbox;
+  auto& dims        = grid.dims;
   if (!check_grid_dims(dims.x, dims.y, dims.z).empty()) return;
   if ((int64_t)grid.values.size() != grid_samples(dims)) return;
   // Voxel bits: the interpolant stays within the corner range, so only a
@@ -111,6 +112,7 @@ void update_grid_accel(grid_data& grid) {
   // and only one with a corner >= 0 a way out for a ray inside.
   auto n = block_dims(dims);
   grid.voxel_masks.assign((size_t)grid_samples(n), 0);
+  auto solid_lo = vec3i{dims.x, dims.y, dims.z}, solid_hi = vec3i{-1, -1, -1};
   for (auto k = 0; k < dims.z - 1; k++) {
     for (auto j = 0; j < dims.y - 1; j++) {
       for (auto i = 0; i < dims.x - 1; i++) {
@@ -118,7 +120,13 @@ void update_grid_accel(grid_data& grid) {
         voxel_corners(grid, {i, j, k}, v);
         auto  bit  = 1 << voxel_bit({i, j, k});
         auto& mask = grid.voxel_masks[block_index(n, {i, j, k})];
-        if (*std::min_element(v, v + 8) < 0) mask |= bit;
+        if (*std::min_element(v, v + 8) < 0) {
+          mask |= bit;
+          solid_lo = {std::min(solid_lo.x, i), std::min(solid_lo.y, j),
+              std::min(solid_lo.z, k)};
+          solid_hi = {std::max(solid_hi.x, i), std::max(solid_hi.y, j),
+              std::max(solid_hi.z, k)};
+        }
         if (*std::max_element(v, v + 8) >= 0) mask |= bit << 8;
       }
     }
@@ -135,6 +143,13 @@ void update_grid_accel(grid_data& grid) {
   for (size_t b = 0; b < outside.size(); b++)
     outside[b] = (uint8_t)(outside[b] | (inside[b] << 4));
   grid.block_skips = std::move(outside);
+  if (solid_hi.x >= 0) {
+    auto voxel = [&](vec3i c) {
+      return vec3f{(float)c.x, (float)c.y, (float)c.z} * grid.spacing;
+    };
+    grid.solid_bounds = {voxel(solid_lo),
+        voxel({solid_hi.x + 1, solid_hi.y + 1, solid_hi.z + 1})};
+  }
 }
 
 bool has_grid_accel(const grid_data& grid) {
@@ -168,6 +183,10 @@ bbox3f grid_bounds(const grid_data& grid) {
                     (float)grid.dims.z - 1} *
                 grid.spacing;
   return {{0, 0, 0}, extent};
+}
+
+bbox3f grid_solid_bounds(const grid_data& grid) {
+  return has_grid_accel(grid) ? grid.solid_bounds : grid_bounds(grid);
 }
 
 size_t grid_memory(const grid_data& grid) {
@@ -543,8 +562,11 @@ bool intersect_grid(
   if (!isfinite(ray.o) || !isfinite(ray.d) || length_squared(ray.d) == 0)
     return false;
 
-  // The box interval of the whole line, then clipped to the ray's range.
-  auto box = grid_bounds(grid);
+  // The interval of the whole line in the box of the solid, then clipped to
+  // the ray's range. Outside that box the interpolant is >= 0, so only where
+  // it meets the grid's box can its faces close the solid.
+  auto box = grid.solid_bounds;
+  if (box.min.x > box.max.x) return false;
   auto b0 = 0.0f, b1 = 0.0f;
   if (!intersect_bbox(ray3f{ray.o, ray.d, flt_lowest, flt_max}, box, b0, b1))
     return false;
@@ -554,7 +576,7 @@ bool intersect_grid(
   // Rebase at t0 so that the march works with box-sized coordinates.
   auto inv_h = 1 / grid.spacing;
   auto m     = grid_march{};
-  auto p0    = min(max(ray.o + ray.d * t0, 0.0f), box.max);
+  auto p0    = min(max(ray.o + ray.d * t0, box.min), box.max);
   m.u0       = p0 * inv_h;
   m.du       = ray.d * inv_h;
   m.length   = t1 - t0;

@@ -66,6 +66,9 @@ struct grid_data {
   // cache next to the samples (3 bytes per 8 voxels).
   std::vector<uint8_t>  block_skips = {};
   std::vector<uint16_t> voxel_masks = {};
+  // Box (grid space) of the voxels with a corner < 0, which holds the whole
+  // solid; invalid_bbox when there is none. Rays are clipped to it.
+  bbox3f solid_bounds = invalid_bbox;
 };
 
 // Sample value at integer coordinates (no bounds check beyond asserts).
@@ -93,6 +96,9 @@ grid_data make_grid(vec3i dims, float spacing, vec3f origin, float value);
 
 // Box of the grid in grid space: [0, spacing*(dims-1)].
 bbox3f grid_bounds(const grid_data& grid);
+// Box that holds the grid's solid (update_grid_accel's solid_bounds), for
+// culling; the grid's box while the acceleration data is missing.
+bbox3f grid_solid_bounds(const grid_data& grid);
 
 // Bytes used by a grid (samples and acceleration data).
 size_t grid_memory(const grid_data& grid);

@@ -74,7 +74,7 @@ accel_data make_accel(
     auto unscale            = frame3f{{1 / instance.scale, 0, 0},
         {0, 1 / instance.scale, 0}, {0, 0, 1 / instance.scale}, {0, 0, 0}};
     object.local_from_world = unscale * instance.local_from_world;
-    object.local_bounds     = grid_bounds(*object.grid);
+    object.local_bounds     = grid_solid_bounds(*object.grid);
     object.exact            = true;
     finish_object(object);
     accel.objects.push_back(object);
