@@ -483,9 +483,17 @@ static float slab_exit(const grid_march& m, int lo, int hi, int axis) {
   return (plane - at(m.u0, axis)) * at(m.inv_du, axis);
 }
 
-// Components of integer vectors (math.h has `at` for vec3f only).
-static int  component(const vec3i& a, int axis) { return (&a.x)[axis]; }
-static int& component(vec3i& a, int axis) { return (&a.x)[axis]; }
+// One coordinate of the voxel after a step that left the cube [lo, hi]:
+// past it on the exit axis, else where the ray is (u, truncation being
+// floor once clamped to lo >= 0), never behind c; unchanged after a single
+// voxel (skip 0).
+static int next_voxel(
+    int c, int lo, int hi, int step, float u, bool exit_axis, int skip) {
+  if (exit_axis) return step > 0 ? hi + 1 : lo - 1;
+  auto at_u  = clamp((int)u, lo, hi);
+  auto moved = step > 0 ? std::max(c, at_u) : std::min(c, at_u);
+  return skip > 0 && step != 0 ? moved : c;
+}
 
 // Walk the voxels over [0, m.length]; true with the hit's s. In a block
 // whose skip distance d is positive the walk jumps over the cube of blocks
@@ -534,22 +542,15 @@ static bool march_grid(
     if (s_exit >= m.length) return false;
     // Next voxel: just past the cube on the exit axis; on the others where
     // the ray is, kept in the cube and never behind the current voxel, so
-    // that every step moves forward whatever the rounding.
-    auto& ce = component(c, axis);
-    ce       = component(m.step, axis) > 0 ? component(hi, axis) + 1
-                                           : component(lo, axis) - 1;
-    if (ce < 0 || ce > component(last, axis)) return false;
-    if (skip > 0) {
-      auto u = m.u0 + m.du * s_exit;
-      for (auto a = 0; a < 3; a++) {
-        auto step = component(m.step, a);
-        if (a == axis || step == 0) continue;
-        auto& ca = component(c, a);
-        // Truncation is floor here: negative values clamp to lo >= 0.
-        auto at_u = clamp((int)at(u, a), component(lo, a), component(hi, a));
-        ca        = step > 0 ? std::max(ca, at_u) : std::min(ca, at_u);
-      }
-    }
+    // that every step moves forward whatever the rounding. Per axis and
+    // without indexing, so that the voxel stays in registers.
+    auto u = m.u0 + m.du * s_exit;
+    c      = {next_voxel(c.x, lo.x, hi.x, m.step.x, u.x, axis == 0, skip),
+             next_voxel(c.y, lo.y, hi.y, m.step.y, u.y, axis == 1, skip),
+             next_voxel(c.z, lo.z, hi.z, m.step.z, u.z, axis == 2, skip)};
+    if ((unsigned)c.x > (unsigned)last.x || (unsigned)c.y > (unsigned)last.y ||
+        (unsigned)c.z > (unsigned)last.z)
+      return false;
     s = s_exit;
   }
 }
