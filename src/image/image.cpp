@@ -9,6 +9,7 @@
 #include <string>
 
 #include "../util/error.h"
+#include "../util/memory.h"
 
 namespace implicit {
 
@@ -22,7 +23,14 @@ image_data make_image(int width, int height) {
   if (width < 0 || height < 0)
     throw io_error("make_image: bad size " + std::to_string(width) + "x" +
                    std::to_string(height));
-  return {width, height, std::vector<vec4f>((size_t)width * height)};
+  // Reserved first and advised before the zeros touch it: lat-long skies
+  // are read at random, where huge pages spare most TLB misses.
+  auto image = image_data{width, height, {}};
+  auto count = (size_t)width * height;
+  image.pixels.reserve(count);
+  advise_huge_pages(image.pixels.data(), count * sizeof(vec4f));
+  image.pixels.resize(count);
+  return image;
 }
 
 // -----------------------------------------------------------------------------
