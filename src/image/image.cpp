@@ -26,10 +26,7 @@ image_data make_image(int width, int height) {
   // Reserved first and advised before the zeros touch it: lat-long skies
   // are read at random, where huge pages spare most TLB misses.
   auto image = image_data{width, height, {}};
-  auto count = (size_t)width * height;
-  image.pixels.reserve(count);
-  advise_huge_pages(image.pixels.data(), count * sizeof(vec4f));
-  image.pixels.resize(count);
+  assign_huge(image.pixels, (size_t)width * height, vec4f{0, 0, 0, 0});
   return image;
 }
 

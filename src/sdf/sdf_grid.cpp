@@ -19,6 +19,7 @@
 #include <cassert>
 
 #include "../util/error.h"
+#include "../util/memory.h"
 
 namespace implicit {
 
@@ -173,7 +174,7 @@ grid_data make_grid(vec3i dims, float spacing, vec3f origin, float value) {
   grid.dims    = dims;
   grid.spacing = spacing;
   grid.origin  = origin;
-  grid.values.assign((size_t)grid_samples(dims), value);
+  assign_huge(grid.values, (size_t)grid_samples(dims), value);
   update_grid_accel(grid);
   return grid;
 }

@@ -20,6 +20,7 @@
 
 #include "../util/error.h"
 #include "../util/file.h"
+#include "../util/memory.h"
 #include "sdf_grid_file.h"
 
 namespace implicit {
@@ -120,7 +121,7 @@ static std::string sample_name(vec3i dims, int64_t n) {
 static void read_samples(const std::string& filename, const mapped_file& file,
     size_t offset, grid_data& grid) {
   auto count = (size_t)grid_samples(grid.dims);
-  grid.values.resize(count);
+  assign_huge(grid.values, count, 0.0f);
   std::memcpy(grid.values.data(), file.data + offset, count * 4);
   for (auto n = size_t{0}; n < count; n++) {
     if (!std::isfinite(grid.values[n]))
@@ -220,7 +221,7 @@ static grid_data load_sdfgen(const std::string& filename) {
             std::to_string(ny) + "x" + std::to_string(nz) + " need " +
             std::to_string(count) + " values but only " +
             std::to_string(remaining) + " bytes follow");
-  grid.values.resize((size_t)count);
+  assign_huge(grid.values, (size_t)count, 0.0f);
   for (auto n = int64_t{0}; n < count; n++) {
     const char *begin = nullptr, *end = nullptr;
     if (!next_token(r, begin, end))

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "../util/error.h"
+#include "../util/memory.h"
 #include "sdf_grid_file.h"
 
 namespace implicit {
@@ -110,7 +111,7 @@ grid_data load_vdb_grid(const std::string& filename) {
   grid.spacing = spacing;
   auto origin  = level_set->transform().indexToWorld(lo);
   grid.origin  = {(float)origin.x(), (float)origin.y(), (float)origin.z()};
-  grid.values.resize((size_t)grid_samples(grid.dims));
+  assign_huge(grid.values, (size_t)grid_samples(grid.dims), 0.0f);
   auto accessor = level_set->getConstAccessor();
   auto index    = size_t{0};
   for (auto k = 0; k < grid.dims.z; k++) {

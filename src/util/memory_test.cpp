@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "../image/image.h"
+#include "../sdf/sdf_grid.h"
 
 using namespace implicit;
 
@@ -46,7 +47,7 @@ std::string mapping_flags(const void* address) {
 
 }  // namespace
 
-TEST_CASE("huge page advice covers whole huge pages only") {
+TEST_CASE("huge page advice covers whole huge pages, images and grids") {
   CHECK_FALSE(advise_huge_pages(nullptr, huge_page_bytes * 4));
   auto small = std::vector<char>(4096);
   CHECK_FALSE(advise_huge_pages(small.data(), small.size()));
@@ -67,4 +68,10 @@ TEST_CASE("huge page advice covers whole huge pages only") {
         std::string::npos);
   CHECK(sky.pixels[12345].x == 0);
   CHECK(sky.pixels.back().w == 0);
+  // So are a grid's samples, with their value.
+  auto grid = make_grid({128, 128, 128}, 0.1f, {0, 0, 0}, 0.5f);
+  CHECK(
+      mapping_flags(grid.values.data() + grid.values.size() / 2).find(" hg") !=
+      std::string::npos);
+  CHECK(grid.values[4321] == 0.5f);
 }
