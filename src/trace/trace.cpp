@@ -405,9 +405,13 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       }
       if (bounce == 0) path.hit = true;
 
-      path.radiance += path.weight *
-                       eval_emission(material, point.normal, outgoing) *
-                       emission_weight(accel, lights, path, path.ray.d);
+      // Most surfaces emit nothing: their MIS weight (a light pdf, which
+      // misses the cache on large environments) is not needed.
+      auto emission = eval_emission(material, point.normal, outgoing);
+      auto mis      = emission == vec3f{0, 0, 0}
+                          ? 1.0f
+                          : emission_weight(accel, lights, path, path.ray.d);
+      path.radiance += path.weight * emission * mis;
 
       auto incoming = vec3f{0, 0, 0};
       if (is_delta(material)) {
