@@ -96,15 +96,9 @@ static float wrap_coordinate(float u, int size) {
   return s;
 }
 
-// The four texels of a bilinear lookup (columns i, ii, rows j, jj) and the
-// weights u, v of the second ones.
-struct bilinear_texels {
-  int   i = 0, ii = 0, j = 0, jj = 0;
-  float u = 0, v = 0;
-};
-
-// Texel i sits at u = i / width (Yocto). The image must not be empty.
-static bilinear_texels find_texels(const image_data& image, vec2f uv) {
+// Bilinear lookup with wrap-around; texel i sits at u = i / width (Yocto).
+vec4f eval_image(const image_data& image, vec2f uv) {
+  if (image.width <= 0 || image.height <= 0) return {0, 0, 0, 0};
   auto s = wrap_coordinate(uv.x, image.width);
   auto t = wrap_coordinate(uv.y, image.height);
   // s can round up to exactly width for a tiny negative u: the clamp keeps i
@@ -113,26 +107,10 @@ static bilinear_texels find_texels(const image_data& image, vec2f uv) {
   auto j  = clamp((int)t, 0, image.height - 1);
   auto ii = i + 1 == image.width ? 0 : i + 1;  // wrap without a division
   auto jj = j + 1 == image.height ? 0 : j + 1;
-  return {i, ii, j, jj, s - i, t - j};
-}
-
-// Bilinear lookup with wrap-around.
-vec4f eval_image(const image_data& image, vec2f uv) {
-  if (image.width <= 0 || image.height <= 0) return {0, 0, 0, 0};
-  auto [i, ii, j, jj, u, v] = find_texels(image, uv);
+  auto u = s - i, v = t - j;
   return pixel(image, i, j) * ((1 - u) * (1 - v)) +
          pixel(image, i, jj) * ((1 - u) * v) +
          pixel(image, ii, j) * (u * (1 - v)) + pixel(image, ii, jj) * (u * v);
-}
-
-void prefetch_image(const image_data& image, vec2f uv) {
-  if (image.width <= 0 || image.height <= 0) return;
-  auto texels = find_texels(image, uv);
-  // Two texels of a row share a cache line unless i ends one (or wraps).
-  __builtin_prefetch(&pixel(image, texels.i, texels.j));
-  __builtin_prefetch(&pixel(image, texels.ii, texels.j));
-  __builtin_prefetch(&pixel(image, texels.i, texels.jj));
-  __builtin_prefetch(&pixel(image, texels.ii, texels.jj));
 }
 
 }  // namespace implicit

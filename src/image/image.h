@@ -61,10 +61,4 @@ image_data tonemap_image(
 // uv is read as 0. Never throws.
 vec4f eval_image(const image_data& image, vec2f uv);
 
-// Ask the cache for the texels eval_image(image, uv) will read, without
-// waiting for them: a renderer that knows a lookup's uv early (an escaping
-// ray's direction before it is traced) hides the memory latency of large
-// images.
-void prefetch_image(const image_data& image, vec2f uv);
-
 }  // namespace implicit

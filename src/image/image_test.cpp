@@ -210,19 +210,4 @@ TEST_CASE("image eval_image equals the fmod wrap-around bit for bit") {
     }
 }
 
-TEST_CASE("image prefetch_image reads nothing out of range") {
-  // It only hints the cache; the texels it names are eval_image's, so the
-  // same edge cases must stay in range (eval_image reads the same texels
-  // below, under the sanitizers in the debug build).
-  auto image = make_test_image_2x2();
-  auto inf   = std::numeric_limits<float>::infinity();
-  auto nan   = std::numeric_limits<float>::quiet_NaN();
-  for (auto u : {0.0f, 0.75f, 0.999999f, 1.0f, -1e-9f, -3.5f, 1e30f, inf, nan})
-    for (auto v : {0.0f, 0.75f, -1e-9f, nan}) {
-      prefetch_image(image, {u, v});
-      CHECK(equal(eval_image(image, {u, v}), eval_image_fmod(image, {u, v})));
-    }
-  prefetch_image(image_data{}, {0.5f, 0.5f});  // empty: nothing to read
-}
-
 }  // namespace implicit

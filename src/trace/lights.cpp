@@ -160,10 +160,8 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
       auto idx = sample_alias(light.cells, rel, u);
       auto uv  = vec2f{((idx % light.width) + u) / light.width,
           ((idx / light.width) + ruv.y) / light.height};
-      // The direction's pdf comes next and its radiance after the ray
-      // escapes (as it mostly does): start both memory reads now.
+      // The direction's pdf comes next: start reading it now.
       __builtin_prefetch(light.cell_pdfs.data() + idx);
-      prefetch_image(scene.textures[environment.emission_tex].image, uv);
       return transform_direction(environment.frame, latlong_direction(uv));
     }
   }
