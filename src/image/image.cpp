@@ -91,9 +91,12 @@ image_data tonemap_image(
 // -----------------------------------------------------------------------------
 
 // Wrap a texture coordinate to [0, size) as Yocto does: fract(u) * size.
+// u - trunc(u) is fmod(u, 1) exactly (the difference of a float and its
+// integer part is exact) without a libm call; from 2^23 up floats are
+// integers, and non-finite u (the comparison fails) reads as 0 too.
 static float wrap_coordinate(float u, int size) {
-  if (!std::isfinite(u)) return 0;
-  auto s = std::fmod(u, 1.0f) * size;
+  auto f = std::abs(u) < 8388608.0f ? u - (float)(int)u : 0.0f;
+  auto s = f * size;
   if (s < 0) s += size;
   return s;
 }
@@ -107,7 +110,8 @@ vec4f eval_image(const image_data& image, vec2f uv) {
   // in range and the weight u = 1 then moves all of it to texel 0.
   auto i  = clamp((int)s, 0, image.width - 1);
   auto j  = clamp((int)t, 0, image.height - 1);
-  auto ii = (i + 1) % image.width, jj = (j + 1) % image.height;
+  auto ii = i + 1 == image.width ? 0 : i + 1;  // wrap without a division
+  auto jj = j + 1 == image.height ? 0 : j + 1;
   auto u = s - i, v = t - j;
   return pixel(image, i, j) * ((1 - u) * (1 - v)) +
          pixel(image, i, jj) * ((1 - u) * v) +

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "../math/random.h"
 #include "../util/error.h"
 
 namespace implicit {
@@ -162,6 +163,51 @@ TEST_CASE("image eval_image wrap-around") {
   auto nan = std::numeric_limits<float>::quiet_NaN();
   CHECK(equal(eval_image(image, {nan, nan}), p00));
   CHECK(equal(eval_image(image_data{}, {0.5f, 0.5f}), {0, 0, 0, 0}));
+}
+
+// eval_image as first written (fmod and %), the reference its cheaper
+// wrap-around must match bit for bit.
+static vec4f eval_image_fmod(const image_data& image, vec2f uv) {
+  auto wrap = [](float u, int size) {
+    if (!std::isfinite(u)) return 0.0f;
+    auto s = std::fmod(u, 1.0f) * size;
+    if (s < 0) s += size;
+    return s;
+  };
+  auto s = wrap(uv.x, image.width), t = wrap(uv.y, image.height);
+  auto i  = std::clamp((int)s, 0, image.width - 1);
+  auto j  = std::clamp((int)t, 0, image.height - 1);
+  auto ii = (i + 1) % image.width, jj = (j + 1) % image.height;
+  auto u = s - i, v = t - j;
+  return pixel(image, i, j) * ((1 - u) * (1 - v)) +
+         pixel(image, i, jj) * ((1 - u) * v) +
+         pixel(image, ii, j) * (u * (1 - v)) + pixel(image, ii, jj) * (u * v);
+}
+
+TEST_CASE("image eval_image equals the fmod wrap-around bit for bit") {
+  auto image = make_image(7, 5);
+  auto rng   = make_rng(3);
+  for (auto& p : image.pixels) p = {rand1f(rng), rand1f(rng), rand1f(rng), 1};
+  auto same = [&](vec2f uv) {
+    CAPTURE(uv.x);
+    CAPTURE(uv.y);
+    CHECK(equal(eval_image(image, uv), eval_image_fmod(image, uv)));
+  };
+  for (auto k = 0; k < 100000; k++) {
+    auto r = rand2f(rng);
+    same({r.x, r.y});
+    same({(r.x - 0.5f) * 10, (r.y - 0.5f) * 1e-6f});
+    same({(r.x - 0.5f) * 3e7f, -r.y});
+  }
+  auto inf = std::numeric_limits<float>::infinity();
+  auto nan = std::numeric_limits<float>::quiet_NaN();
+  for (auto u : {0.0f, -0.0f, 1.0f, -1.0f, 1e-9f, -1e-9f, -1e-30f, 0.99999994f,
+           -0.99999994f, 8388607.5f, -8388607.5f, 8388608.0f, -8388609.0f,
+           1e30f, -1e30f, inf, -inf, nan})
+    for (auto v : {0.0f, -1e-9f, 0.5f, -0.75f}) {
+      same({u, v});
+      same({v, u});
+    }
 }
 
 }  // namespace implicit

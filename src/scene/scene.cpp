@@ -102,14 +102,21 @@ vec4f eval_texture(const scene_data& scene, int texture, vec2f uv) {
 }
 
 vec3f eval_environment(const scene_data& scene,
-    const environment_data& environment, vec3f direction) {
+    const environment_data& environment, const frame3f& env_from_world,
+    vec3f direction) {
   // Without a texture the lat-long mapping (two atan2) is not needed.
   auto texture = environment.emission_tex;
   if (texture < 0 || texture >= (int)scene.textures.size())
     return environment.emission;
-  auto wl = transform_direction(inverse(environment.frame), direction);
+  auto wl = transform_direction(env_from_world, direction);
   return environment.emission *
          xyz(eval_texture(scene, environment.emission_tex, latlong_uv(wl)));
+}
+
+vec3f eval_environment(const scene_data& scene,
+    const environment_data& environment, vec3f direction) {
+  return eval_environment(
+      scene, environment, inverse(environment.frame), direction);
 }
 
 vec3f eval_environment(const scene_data& scene, vec3f direction) {

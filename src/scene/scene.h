@@ -156,6 +156,11 @@ vec4f eval_texture(const scene_data& scene, int texture, vec2f uv);
 vec3f eval_environment(const scene_data& scene, vec3f direction);
 vec3f eval_environment(const scene_data& scene,
     const environment_data& environment, vec3f direction);
+// The same with the environment's inverse frame given, for callers that keep
+// it (the tracer's lights_data) rather than invert a 3x3 matrix per ray.
+vec3f eval_environment(const scene_data& scene,
+    const environment_data& environment, const frame3f& env_from_world,
+    vec3f direction);
 
 // Add a camera that frames the scene's bounds when there is none.
 void add_missing_camera(scene_data& scene, const bbox3f& bounds);

@@ -101,12 +101,12 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
   }
   for (auto i = 0; i < (int)scene.environments.size(); i++) {
     auto& environment = scene.environments[i];
+    lights.env_from_world.push_back(inverse(environment.frame));
     if (max(environment.emission) <= 0) continue;
-    auto light           = trace_light{};
-    light.shape          = light_shape::environment;
-    light.environment    = i;
-    light.env_from_world = inverse(environment.frame);
-    auto texture         = environment.emission_tex;
+    auto light        = trace_light{};
+    light.shape       = light_shape::environment;
+    light.environment = i;
+    auto texture      = environment.emission_tex;
     if (texture >= 0 && texture < (int)scene.textures.size()) {
       make_environment_table(scene.textures[texture].image, light);
       if (light.cells.entries.empty()) continue;
@@ -114,6 +114,18 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
     lights.lights.push_back(std::move(light));
   }
   return lights;
+}
+
+vec3f eval_environment(
+    const scene_data& scene, const lights_data& lights, vec3f direction) {
+  // Lights made for another scene (or none, lights_data{}) have no frames.
+  if (lights.env_from_world.size() != scene.environments.size())
+    return eval_environment(scene, direction);
+  auto emission = vec3f{0, 0, 0};
+  for (auto i = 0; i < (int)scene.environments.size(); i++)
+    emission += eval_environment(
+        scene, scene.environments[i], lights.env_from_world[i], direction);
+  return emission;
 }
 
 // -----------------------------------------------------------------------------
@@ -148,6 +160,8 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
       auto idx = sample_alias(light.cells, rel, u);
       auto uv  = vec2f{((idx % light.width) + u) / light.width,
           ((idx / light.width) + ruv.y) / light.height};
+      // The direction's pdf comes next: start reading it now.
+      __builtin_prefetch(light.cell_pdfs.data() + idx);
       return transform_direction(environment.frame, latlong_direction(uv));
     }
   }
@@ -207,7 +221,8 @@ float sample_lights_pdf(const accel_data& accel, const lights_data& lights,
           pdf += picked / (4 * pif);
           break;
         }
-        auto wl        = transform_direction(light.env_from_world, direction);
+        auto wl = transform_direction(
+            lights.env_from_world[light.environment], direction);
         auto uv        = latlong_uv(wl);
         auto sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
         auto i         = clamp((int)(uv.x * light.width), 0, light.width - 1);

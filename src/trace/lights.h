@@ -40,18 +40,28 @@ struct trace_light {
   // the lookup on every bounce stays in cache and needs no division).
   std::vector<float> cell_pdfs = {};
   int                width = 0, height = 0;  // environment cells
-  frame3f            env_from_world = {};    // the environment's inverse frame
 };
 
 struct lights_data {
   std::vector<trace_light> lights = {};
+  // Inverse frame of every scene environment (lights or not), so that
+  // escaped rays need no 3x3 inverse.
+  std::vector<frame3f> env_from_world = {};
 };
 
 // Collect the lights of a scene.
 lights_data make_lights(const scene_data& scene, const accel_data& accel);
 
+// Radiance of the scene's environments along a world direction, as
+// eval_environment(scene, direction) with the inverse frames kept in
+// `lights` by make_lights() (without them, it inverts them per call).
+vec3f eval_environment(
+    const scene_data& scene, const lights_data& lights, vec3f direction);
+
 // Sample a direction toward the lights from `position` (one light picked
-// uniformly by `rl`, a face or cell by `rel`, a point by `ruv`).
+// uniformly by `rl`, a face or cell by `rel`, a point by `ruv`). For an
+// environment cell it also starts reading the cell's pdf, which
+// sample_lights_pdf() needs next and would otherwise miss the cache.
 vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, vec3f position, float rl, float rel, vec2f ruv);
 

@@ -215,3 +215,29 @@ TEST_CASE("lights: large environments are sampled by cells of texels") {
     REQUIRE(sample_lights_pdf(accel, lights, {0, 0, 0}, direction) > 0);
   }
 }
+
+TEST_CASE("lights: environments with kept inverse frames equal the scene's") {
+  // A textured rotated environment, a constant one and a dark one (not a
+  // light, still summed): the same radiance to the bit as inverting frames.
+  auto scene        = environment_scene();
+  auto constant     = environment_data{};
+  constant.emission = {0.5f, 0.25f, 2};
+  constant.frame    = {{1, 0, 0}, {0, 0, 1}, {0, -1, 0}, {1, 2, 3}};
+  auto dark         = scene.environments[0];
+  dark.emission     = {0, 0, 0};
+  dark.frame        = {{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}, {0, 0, 0}};
+  scene.environments.push_back(constant);
+  scene.environments.push_back(dark);
+  auto accel  = make_accel(scene, accel_type::bvh, {});
+  auto lights = make_lights(scene, accel);
+  CHECK(lights.lights.size() == 2);
+  REQUIRE(lights.env_from_world.size() == 3);
+  auto rng = make_rng(9);
+  for (auto k = 0; k < 10000; k++) {
+    auto direction = sample_sphere(rand2f(rng));
+    auto expected  = eval_environment(scene, direction);
+    CHECK(eval_environment(scene, lights, direction) == expected);
+    // Lights without frames (not made for this scene) fall back.
+    CHECK(eval_environment(scene, lights_data{}, direction) == expected);
+  }
+}

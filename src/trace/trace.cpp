@@ -105,7 +105,7 @@ inline constexpr int max_crossings = 16;
 // let (1 - opacity) through and volumetric (pass-through) objects attenuate
 // by their transmittance, both deterministically; any other surface blocks.
 static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
-    ray3f ray, int64_t& evaluations) {
+    const lights_data& lights, ray3f ray, int64_t& evaluations) {
   auto transmittance = vec3f{1, 1, 1};
   auto radiance      = vec3f{0, 0, 0};
   auto inside        = std::array<int, 8>{};  // volumetric objects entered
@@ -115,7 +115,7 @@ static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
     auto isec = intersect_scene(accel, ray);
     evaluations += isec.evaluations;
     if (!isec.hit)
-      return radiance + transmittance * eval_environment(scene, ray.d);
+      return radiance + transmittance * eval_environment(scene, lights, ray.d);
     auto  point    = eval_surface(scene, accel, ray, isec);
     auto& material = point.material;
     radiance += transmittance * material.opacity *
@@ -280,7 +280,7 @@ static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
     if (bsdfcos != vec3f{0, 0, 0} && lpdf > 0) {
       auto bpdf = sample_bsdfcos_pdf(material, point.normal, outgoing, light);
       auto le   = eval_unscattered(
-            scene, accel, spawn_ray(accel, point, light), evaluations);
+            scene, accel, lights, spawn_ray(accel, point, light), evaluations);
       path.radiance +=
           path.weight * bsdfcos * le * (power_heuristic(lpdf, bpdf) / lpdf);
     }
@@ -362,7 +362,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     evaluations += isec.evaluations;
     if (!isec.hit) {
       if (bounce > 0 || !params.envhidden)
-        path.radiance += path.weight * eval_environment(scene, path.ray.d) *
+        path.radiance += path.weight *
+                         eval_environment(scene, lights, path.ray.d) *
                          emission_weight(accel, lights, path, path.ray.d);
       break;
     }
@@ -404,9 +405,13 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       }
       if (bounce == 0) path.hit = true;
 
-      path.radiance += path.weight *
-                       eval_emission(material, point.normal, outgoing) *
-                       emission_weight(accel, lights, path, path.ray.d);
+      // Most surfaces emit nothing: their MIS weight (a light pdf, which
+      // misses the cache on large environments) is not needed.
+      auto emission = eval_emission(material, point.normal, outgoing);
+      auto mis      = emission == vec3f{0, 0, 0}
+                          ? 1.0f
+                          : emission_weight(accel, lights, path, path.ray.d);
+      path.radiance += path.weight * emission * mis;
 
       auto incoming = vec3f{0, 0, 0};
       if (is_delta(material)) {
