@@ -48,6 +48,8 @@
 
 #include "scene_io.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -659,27 +661,35 @@ scene_data parse_scene(const std::string& text, const std::string& filename,
       });
   if (!load_files) return scene;
 
-  // Files last, relative to the scene's directory; their errors are wrapped
-  // with the element and key that named them.
+  // Files last, relative to the scene's directory, loaded in parallel (each
+  // into its own element). Their errors are wrapped with the element and key
+  // that named them; the first one in the file's order is reported.
   auto directory = std::filesystem::path(filename).parent_path();
-  for (size_t i = 0; i < scene.volumes.size(); i++) {
-    auto& volume = scene.volumes[i];
-    auto  path   = (directory / volume.uri).string();
+  auto volumes   = scene.volumes.size();
+  auto count     = volumes + scene.textures.size();
+  auto errors    = std::vector<std::string>(count);
+  auto failed    = std::vector<char>(count, 0);
+  tbb::parallel_for(size_t{0}, count, [&](size_t k) {
     try {
-      volume.grid = std::make_shared<const grid_data>(
-          load_grid(path, grid_format_from_uri(volume.uri, volume_binary[i])));
+      if (k < volumes) {
+        auto& volume = scene.volumes[k];
+        auto  format = grid_format_from_uri(volume.uri, volume_binary[k]);
+        volume.grid  = std::make_shared<const grid_data>(
+            load_grid((directory / volume.uri).string(), format));
+      } else {
+        auto& texture = scene.textures[k - volumes];
+        texture.image = load_image((directory / texture.uri).string());
+      }
     } catch (const io_error& error) {
-      throw_json_error(volume_places[i], "uri", error.what());
+      errors[k] = error.what();
+      failed[k] = 1;
     }
-  }
-  for (size_t i = 0; i < scene.textures.size(); i++) {
-    auto& texture = scene.textures[i];
-    auto  path    = (directory / texture.uri).string();
-    try {
-      texture.image = load_image(path);
-    } catch (const io_error& error) {
-      throw_json_error(texture_places[i], "uri", error.what());
-    }
+  });
+  for (size_t k = 0; k < count; k++) {
+    if (!failed[k]) continue;
+    throw_json_error(
+        k < volumes ? volume_places[k] : texture_places[k - volumes], "uri",
+        errors[k]);
   }
   return scene;
 }

@@ -681,6 +681,15 @@ TEST_CASE("scene_io load_scene reads files") {
       contains(inside + ": textures[0] (\"sky\").uri: " +
                (dir / "nowhere/sky.hdr").string()),
       io_error);
+  // Files load in parallel, yet of several bad ones the first in the file's
+  // order is reported, every time.
+  auto several = small_scene(
+      R"("volumes": [{"name": "a", "uri": "nowhere/a.sdf", "binary": false},
+                     {"name": "b", "uri": "nowhere/b.sdf", "binary": false}],
+         "textures": [{"name": "sky", "uri": "nowhere/sky.hdr"}])");
+  for (auto run = 0; run < 20; run++)
+    CHECK_THROWS_WITH_AS(parse_scene(several, inside),
+        contains(inside + ": volumes[0] (\"a\").uri: "), io_error);
 }
 
 // -----------------------------------------------------------------------------
