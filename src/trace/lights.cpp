@@ -39,30 +39,95 @@ static vec3f box_face_point(vec3f s, int face, vec2f uv) {
 // Most cells of an environment's sampling table (512x256).
 static constexpr int64_t max_environment_cells = int64_t{1} << 17;
 
-// Sampling table of a lat-long image: cells of f x f texels, f the smallest
-// power of two that keeps the cell count within max_environment_cells. A
-// cell weighs the sum of its texels' largest channel times sin(theta)
-// (Yocto/GL's texel weight); negative or non-finite texels weigh nothing.
+// How much coarser cells may raise the second moment of an environment-only
+// estimate, E[(L / pdf)^2] / E[L / pdf]^2 (1 when the pdf follows every
+// texel): 1% of the squared mean, so at most 1% more variance.
+static constexpr double max_cell_second_moment_rise = 0.01;
+
+// Per-cell sums of texel weights and of their squares, over cells of f x f
+// texels (the last row and column partial).
+struct cell_sums {
+  int                 width = 0, height = 0, f = 1;
+  std::vector<double> weights = {}, squares = {};
+};
+
+// Sums over cells twice as large: ceil(ceil(n / f) / 2) = ceil(n / 2f), so
+// cell (i, j) of the result holds the texels i / 2f, j / 2f as before.
+static cell_sums coarser_cells(const cell_sums& fine) {
+  auto coarse   = cell_sums{};
+  coarse.width  = (fine.width + 1) / 2;
+  coarse.height = (fine.height + 1) / 2;
+  coarse.f      = fine.f * 2;
+  coarse.weights.assign((size_t)coarse.width * coarse.height, 0.0);
+  coarse.squares.assign(coarse.weights.size(), 0.0);
+  for (auto j = 0; j < fine.height; j++) {
+    for (auto i = 0; i < fine.width; i++) {
+      auto from = (size_t)j * fine.width + i;
+      auto to   = (size_t)(j / 2) * coarse.width + i / 2;
+      coarse.weights[to] += fine.weights[from];
+      coarse.squares[to] += fine.squares[from];
+    }
+  }
+  return coarse;
+}
+
+// E[(L / pdf)^2] / E[L / pdf]^2 of sampling a cell by weight and a texel in
+// it uniformly: sum over cells of texels * squares / weight, over the total.
+static double cell_second_moment(
+    const cell_sums& cells, const image_data& image) {
+  auto sum = 0.0, total = 0.0;
+  for (auto j = 0; j < cells.height; j++) {
+    auto rows = std::min(cells.f, image.height - j * cells.f);
+    for (auto i = 0; i < cells.width; i++) {
+      auto columns = std::min(cells.f, image.width - i * cells.f);
+      auto k       = (size_t)j * cells.width + i;
+      if (cells.weights[k] <= 0) continue;
+      sum += (double)rows * columns * cells.squares[k] / cells.weights[k];
+      total += cells.weights[k];
+    }
+  }
+  return total > 0 ? sum / total : 1;
+}
+
+// Sampling table of a lat-long image. A texel weighs its largest channel
+// times sin(theta) (Yocto/GL's texel weight); negative or non-finite texels
+// weigh nothing. Cells are f x f texels, f a power of two: the smallest that
+// keeps the count within max_environment_cells, then doubled while that
+// raises the second moment by at most max_cell_second_moment_rise. A smooth
+// sky ends with a few thousand cells, whose pdfs stay in L1 on every bounce;
+// a small sun keeps cells as fine as the budget allows.
 static void make_environment_table(
     const image_data& image, trace_light& light) {
   auto f = 1;
   while ((int64_t)((image.width + f - 1) / f) * ((image.height + f - 1) / f) >
          max_environment_cells)
     f *= 2;
-  light.width  = (image.width + f - 1) / f;
-  light.height = (image.height + f - 1) / f;
-  auto sums    = std::vector<double>((size_t)light.width * light.height, 0.0);
+  auto cells   = cell_sums{};
+  cells.width  = (image.width + f - 1) / f;
+  cells.height = (image.height + f - 1) / f;
+  cells.f      = f;
+  cells.weights.assign((size_t)cells.width * cells.height, 0.0);
+  cells.squares.assign(cells.weights.size(), 0.0);
   for (auto j = 0; j < image.height; j++) {
     auto sin_theta = std::sin((j + 0.5f) * pif / image.height);
-    auto row       = sums.data() + (size_t)(j / f) * light.width;
+    auto row       = (size_t)(j / f) * cells.width;
     for (auto i = 0; i < image.width; i++) {
       auto& texel  = pixel(image, i, j);
       auto  weight = std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
       if (!(std::isfinite(weight) && weight > 0)) continue;
-      row[i / f] += weight;
+      cells.weights[row + i / f] += weight;
+      cells.squares[row + i / f] += (double)weight * weight;
     }
   }
-  auto weights = std::vector<float>(sums.begin(), sums.end());
+  auto budget = cell_second_moment(cells, image) + max_cell_second_moment_rise;
+  while (cells.width > 1 || cells.height > 1) {
+    auto coarse = coarser_cells(cells);
+    if (cell_second_moment(coarse, image) > budget) break;
+    cells = std::move(coarse);
+  }
+  light.width  = cells.width;
+  light.height = cells.height;
+  auto weights = std::vector<float>(cells.weights.begin(), cells.weights.end());
   light.cells  = make_alias_table(weights);
   if (light.cells.entries.empty()) return;
   auto scale = (double)light.width * light.height /

@@ -4,7 +4,7 @@
 // placed by rigid frames, including the seed's flat box lights) and
 // environments (constant, or lat-long textures importance sampled by texel
 // luminance times sin(theta), summed over cells of at most 2^17 per image,
-// through an alias table). One light is chosen
+// as coarse as the image allows, through an alias table). One light is chosen
 // uniformly per sample: picking by power (pbrt's flux, the sky's through a
 // disk of the scene's radius) made the seed's 07_sdfunction 10-15% noisier
 // at equal samples, since its lamp matters more near the objects than its
@@ -24,10 +24,11 @@ enum class light_shape { box, sphere, environment };
 
 // One light. Boxes keep a cdf over their six faces (areas); textured
 // environments an alias table over cells of texels and the cells' weights.
-// Cells keep the tables small enough to stay in cache (2048x1024 texels give
-// 512x256 cells: 1.5 MB, against 16 MB for a table over texels); directions
-// are uniform in uv within a cell, so the pdf is the cell's probability over
-// its solid angle, whatever the weights.
+// Cells keep the tables small enough to stay in cache (at most 512x256 cells,
+// 1.5 MB, against 16 MB for a table over 2048x1024 texels; the seed's smooth
+// sky needs only 64x32, 24 KB); directions are uniform in uv within a cell,
+// so the pdf is the cell's probability over its solid angle, whatever the
+// weights.
 struct trace_light {
   light_shape        shape       = light_shape::box;
   int                object      = invalidid;  // in accel_data::objects

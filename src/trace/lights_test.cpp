@@ -216,6 +216,62 @@ TEST_CASE("lights: large environments are sampled by cells of texels") {
   }
 }
 
+// E[(L / pdf)^2] / E[L / pdf]^2 of the light samples of a one-light scene,
+// from `samples` directions: 1 when the pdf follows the radiance exactly.
+static double light_second_moment(
+    const scene_data& scene, int samples, uint64_t seed) {
+  auto accel  = make_accel(scene, accel_type::bvh, {});
+  auto lights = make_lights(scene, accel);
+  auto rng    = make_rng(seed);
+  auto sum = 0.0, squares = 0.0;
+  for (auto k = 0; k < samples; k++) {
+    auto direction = sample_lights(
+        scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
+    auto pdf = sample_lights_pdf(accel, lights, {0, 0, 0}, direction);
+    auto value =
+        pdf > 0 ? max(eval_environment(scene, lights, direction)) / pdf : 0.0f;
+    sum += value;
+    squares += (double)value * value;
+  }
+  return squares * samples / (sum * sum);
+}
+
+TEST_CASE("lights: smooth environments get coarse cells, small suns fine") {
+  // A smooth sky of 2048x1024 texels: the cap would give 512x256 cells, but
+  // far coarser ones sample it as well.
+  auto  scene = environment_scene();
+  auto& image = scene.textures[0].image;
+  image       = make_image(2048, 1024);
+  for (auto j = 0; j < image.height; j++)
+    for (auto i = 0; i < image.width; i++)
+      pixel(image, i, j) = {1 + 0.5f * std::sin(i * 2 * pif / image.width),
+          0.5f + (float)j / image.height, 0.5f, 1};
+  auto accel  = make_accel(scene, accel_type::bvh, {});
+  auto lights = make_lights(scene, accel);
+  REQUIRE(lights.lights.size() == 1);
+  CHECK(lights.lights[0].width < 512);
+  CHECK(lights.lights[0].width == 2 * lights.lights[0].height);
+  CHECK(integrate_pdf(accel, lights, {0, 0, 0}, 1000) ==
+        doctest::Approx(1.0).epsilon(0.01));
+  // Coarse cells still follow the radiance: within the 1% budget (and the
+  // bilinear texels' spread), Monte Carlo noise aside.
+  CHECK(light_second_moment(scene, 200000, 5) < 1.02);
+
+  // A sun of one texel on a dim sky keeps the finest cells the image has.
+  image = make_image(256, 128);
+  for (auto j = 0; j < image.height; j++)
+    for (auto i = 0; i < image.width; i++)
+      pixel(image, i, j) = {0.1f, 0.1f, 0.1f, 1};
+  pixel(image, 77, 40) = {5000, 5000, 4000, 1};
+  accel                = make_accel(scene, accel_type::bvh, {});
+  lights               = make_lights(scene, accel);
+  REQUIRE(lights.lights.size() == 1);
+  CHECK(lights.lights[0].width == 256);
+  CHECK(lights.lights[0].height == 128);
+  CHECK(integrate_pdf(accel, lights, {0, 0, 0}, 1000) ==
+        doctest::Approx(1.0).epsilon(0.01));
+}
+
 TEST_CASE("lights: environments with kept inverse frames equal the scene's") {
   // A textured rotated environment, a constant one and a dark one (not a
   // light, still summed): the same radiance to the bit as inverting frames.
