@@ -104,6 +104,19 @@ inline constexpr int max_crossings = 16;
 // the first surface that blocks it, or the environment. Surfaces with opacity
 // let (1 - opacity) through and volumetric (pass-through) objects attenuate
 // by their transmittance, both deterministically; any other surface blocks.
+// A surface that stops light samples and adds nothing to them: opaque
+// everywhere (no color texture whose alpha could lower it), emitting nothing,
+// not a volumetric pass-through. Light samples that hit one need neither its
+// normal nor its textures.
+static bool blocks_without_emission(
+    const scene_data& scene, const trace_object& object) {
+  if (object.material < 0 || object.material >= (int)scene.materials.size())
+    return false;
+  auto& material = scene.materials[object.material];
+  return material.type != material_type::volumetric && material.opacity >= 1 &&
+         material.color_tex < 0 && max(material.emission) <= 0;
+}
+
 static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, ray3f ray, int64_t& evaluations) {
   auto transmittance = vec3f{1, 1, 1};
@@ -116,6 +129,8 @@ static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
     evaluations += isec.evaluations;
     if (!isec.hit)
       return radiance + transmittance * eval_environment(scene, lights, ray.d);
+    if (blocks_without_emission(scene, accel.objects[isec.object]))
+      return radiance;
     auto  point    = eval_surface(scene, accel, ray, isec);
     auto& material = point.material;
     radiance += transmittance * material.opacity *
@@ -267,13 +282,17 @@ static vec3f shade_delta(
 
 // Two-sample MIS: a light sample traced to whatever emits along it, then a
 // BSDF sample that continues the path, both weighted by the power heuristic.
+// At the last bounce the path would not look at what its BSDF sample finds,
+// so there is no light sample either (`last`): it would count a share of
+// paths one bounce longer than one-sample MIS and the BSDF alone reach.
 static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, path_state& path, const surface_point& point,
-    path_sampler& sampler, int64_t& evaluations) {
+    bool last, path_sampler& sampler, int64_t& evaluations) {
   auto& material = point.material;
   auto  outgoing = -path.ray.d;
   auto  light =
-      sample_lights_next(scene, accel, lights, point.position, sampler);
+      last ? vec3f{0, 0, 0}
+            : sample_lights_next(scene, accel, lights, point.position, sampler);
   if (light != vec3f{0, 0, 0}) {
     auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
     auto lpdf    = sample_lights_pdf(accel, lights, point.position, light);
@@ -417,8 +436,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       if (is_delta(material)) {
         incoming = shade_delta(path, point, sampler);
       } else if (two_sample && path.volumes.size == 0) {
-        incoming = shade_two_sample(
-            scene, accel, lights, path, point, sampler, evaluations);
+        incoming = shade_two_sample(scene, accel, lights, path, point,
+            bounce + 1 == params.bounces, sampler, evaluations);
       } else {
         incoming = shade_one_sample(
             scene, accel, lights, use_lights, path, point, sampler);

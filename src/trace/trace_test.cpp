@@ -251,6 +251,34 @@ TEST_CASE("trace: two-sample MIS counts light through a volumetric slab once") {
   check_mis_means(scene, params);
 }
 
+// Light samples skip the shading of surfaces that block them and emit
+// nothing; a surface whose colour texture lowers its opacity is not one of
+// them. A white screen between the lamp and the floor lets half the light
+// through by its texture's alpha: light samples must see through it as BSDF
+// samples do.
+TEST_CASE("trace: two-sample MIS sees through a texture's alpha") {
+  auto scene    = small_light_scene();
+  auto texture  = texture_data{};
+  texture.image = make_image(4, 4);
+  for (auto& texel : texture.image.pixels) texel = {1, 1, 1, 0.5f};
+  auto screen      = material_data{};
+  screen.color     = {1, 1, 1};
+  screen.color_tex = (int)scene.textures.size();
+  scene.textures.push_back(texture);
+  scene.materials.push_back(screen);
+  auto slab = sdf_node{};
+  slab.type = sdf_type::box;
+  slab.size = {4, 0.05f, 4};
+  scene.sdfunctions.push_back(
+      make_function(slab, {-2, 0.6f, -2}, (int)scene.materials.size() - 1));
+  auto params       = trace_params{};
+  params.resolution = 32;
+  params.samples    = 256;
+  params.bounces    = 3;
+  params.clamp      = 1e6f;
+  check_mis_means(scene, params);
+}
+
 TEST_CASE("trace: absorbing glass is darker than clear glass") {
   auto scene                 = furnace_scene();
   scene.materials[0].type    = material_type::refractive;
