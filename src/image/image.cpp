@@ -101,21 +101,44 @@ static float wrap_coordinate(float u, int size) {
   return s;
 }
 
-// Bilinear lookup with wrap-around; texel i sits at u = i / width (Yocto).
-vec4f eval_image(const image_data& image, vec2f uv) {
-  if (image.width <= 0 || image.height <= 0) return {0, 0, 0, 0};
+// The four texels of a bilinear lookup, columns i, ii and rows j, jj, and
+// the weights u, v of the second ones. The image must not be empty.
+struct bilinear_footprint {
+  int   i = 0, ii = 0, j = 0, jj = 0;
+  float u = 0, v = 0;
+};
+
+static bilinear_footprint eval_footprint(const image_data& image, vec2f uv) {
   auto s = wrap_coordinate(uv.x, image.width);
   auto t = wrap_coordinate(uv.y, image.height);
   // s can round up to exactly width for a tiny negative u: the clamp keeps i
   // in range and the weight u = 1 then moves all of it to texel 0.
-  auto i  = clamp((int)s, 0, image.width - 1);
-  auto j  = clamp((int)t, 0, image.height - 1);
-  auto ii = i + 1 == image.width ? 0 : i + 1;  // wrap without a division
-  auto jj = j + 1 == image.height ? 0 : j + 1;
-  auto u = s - i, v = t - j;
+  auto f = bilinear_footprint{};
+  f.i    = clamp((int)s, 0, image.width - 1);
+  f.j    = clamp((int)t, 0, image.height - 1);
+  f.ii   = f.i + 1 == image.width ? 0 : f.i + 1;  // wrap without a division
+  f.jj   = f.j + 1 == image.height ? 0 : f.j + 1;
+  f.u    = s - f.i;
+  f.v    = t - f.j;
+  return f;
+}
+
+// Bilinear lookup with wrap-around; texel i sits at u = i / width (Yocto).
+vec4f eval_image(const image_data& image, vec2f uv) {
+  if (image.width <= 0 || image.height <= 0) return {0, 0, 0, 0};
+  auto [i, ii, j, jj, u, v] = eval_footprint(image, uv);
   return pixel(image, i, j) * ((1 - u) * (1 - v)) +
          pixel(image, i, jj) * ((1 - u) * v) +
          pixel(image, ii, j) * (u * (1 - v)) + pixel(image, ii, jj) * (u * v);
+}
+
+void prefetch_image(const image_data& image, vec2f uv) {
+  if (image.width <= 0 || image.height <= 0) return;
+  auto f = eval_footprint(image, uv);
+  for (auto row : {f.j, f.jj}) {
+    __builtin_prefetch(&pixel(image, f.i, row));
+    __builtin_prefetch(&pixel(image, f.ii, row));
+  }
 }
 
 }  // namespace implicit

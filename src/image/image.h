@@ -61,4 +61,9 @@ image_data tonemap_image(
 // uv is read as 0. Never throws.
 vec4f eval_image(const image_data& image, vec2f uv);
 
+// Start reading the texels eval_image(image, uv) reads, for a lookup that
+// comes later: a light sample toward a large sky knows its uv a whole ray
+// before the sky is looked up. A hint; reads nothing.
+void prefetch_image(const image_data& image, vec2f uv);
+
 }  // namespace implicit

@@ -225,8 +225,10 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
       auto idx = sample_alias(light.cells, rel, u);
       auto uv  = vec2f{((idx % light.width) + u) / light.width,
           ((idx / light.width) + ruv.y) / light.height};
-      // The direction's pdf comes next: start reading it now.
-      __builtin_prefetch(light.cell_pdfs.data() + idx);
+      // Its radiance is looked up once the ray is traced: start reading it.
+      auto texture = environment.emission_tex;
+      if (texture >= 0 && texture < (int)scene.textures.size())
+        prefetch_image(scene.textures[texture].image, uv);
       return transform_direction(environment.frame, latlong_direction(uv));
     }
   }

@@ -60,9 +60,9 @@ vec3f eval_environment(
     const scene_data& scene, const lights_data& lights, vec3f direction);
 
 // Sample a direction toward the lights from `position` (one light picked
-// uniformly by `rl`, a face or cell by `rel`, a point by `ruv`). For an
-// environment cell it also starts reading the cell's pdf, which
-// sample_lights_pdf() needs next and would otherwise miss the cache.
+// uniformly by `rl`, a face or cell by `rel`, a point by `ruv`). For a
+// textured environment it also starts reading the texels the direction's
+// radiance needs once its ray is traced (large skies miss the cache).
 vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, vec3f position, float rl, float rel, vec2f ruv);
 
