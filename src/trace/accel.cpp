@@ -2,6 +2,8 @@
 
 #include "accel.h"
 
+#include <cstring>
+
 #include "../sdf/sdf_primitives.h"
 #include "../util/error.h"
 #include "accel_embree.h"
@@ -134,6 +136,17 @@ accel_data make_accel(
   for (auto index : accel.bounded)
     accel.bounded_boxes.push_back(
         expand(accel.objects[index].world_bounds, padding));
+  // Padded to a multiple of 4 (whatever the padding holds is never read as
+  // an object: callers look at the first bounded.size() entries).
+  for (auto a = 0; a < 3; a++) {
+    auto size = (accel.bounded_boxes.size() + 3) / 4 * 4;
+    accel.bounded_min[a].assign(size, 0.0f);
+    accel.bounded_max[a].assign(size, 0.0f);
+    for (size_t k = 0; k < accel.bounded_boxes.size(); k++) {
+      accel.bounded_min[a][k] = at(accel.bounded_boxes[k].min, a);
+      accel.bounded_max[a][k] = at(accel.bounded_boxes[k].max, a);
+    }
+  }
   auto linear_max = std::min(accel.march.linear_max, linear_max_objects);
   if (type == accel_type::bvh && (int)accel.bounded.size() > linear_max)
     accel.bvh = make_embree_bvh(accel);
@@ -331,22 +344,40 @@ static bool is_closer(
 // Whether the bounded objects go through the BVH (else a loop).
 static bool uses_bvh(const accel_data& accel) { return accel.bvh.scene; }
 
-// Entry distance of a ray into a box given the inverse direction (infinite
-// for zero components); false if the ray misses it in [tmin, tmax]. NaN-safe
-// like intersect_bbox(): a ray lying in a slab's plane keeps its interval.
-static bool enter_bbox(
-    const ray3f& ray, vec3f inverse, const bbox3f& box, float& t0) {
-  auto t1 = ray.tmax;
-  t0      = ray.tmin;
-  for (auto a = 0; a < 3; a++) {
-    auto o  = at(ray.o, a);
-    auto ta = (at(box.min, a) - o) * at(inverse, a);
-    auto tb = (at(box.max, a) - o) * at(inverse, a);
-    if (ta > tb) std::swap(ta, tb);
-    t0 = ta > t0 ? ta : t0;
-    t1 = tb < t1 ? tb : t1;
+// Four floats as one value (GCC/Clang vector extension): arithmetic and
+// comparisons act per lane, and `c ? x : y` selects per lane.
+using float4 = float __attribute__((vector_size(16)));
+
+static float4 load4(const float* values) {
+  auto v = float4{};
+  std::memcpy(&v, values, sizeof(v));
+  return v;
+}
+
+// Entry distance of the ray into each bounded box, or +inf where it misses
+// the box within [tmin, tmax], four boxes at a time: `entries` gets the
+// count rounded up to 4 (at most linear_max_objects, a multiple of 4).
+// NaN-safe like intersect_bbox(): a ray lying in a slab's plane keeps its
+// interval (a NaN slab time loses every comparison).
+static void enter_boxes(
+    const accel_data& accel, const ray3f& ray, float entries[]) {
+  auto inverse = vec3f{1 / ray.d.x, 1 / ray.d.y, 1 / ray.d.z};
+  auto count   = (int)accel.bounded.size();
+  for (auto k = 0; k < count; k += 4) {
+    auto t0 = float4{} + ray.tmin, t1 = float4{} + ray.tmax;
+    for (auto a = 0; a < 3; a++) {
+      auto o = at(ray.o, a), inv = at(inverse, a);
+      auto ta = (load4(accel.bounded_min[a].data() + k) - o) * inv;
+      auto tb = (load4(accel.bounded_max[a].data() + k) - o) * inv;
+      // The x86 minps/maxps forms: `tb < ta ? tb : ta` keeps ta when either
+      // is NaN, as intersect_bbox()'s swap does.
+      auto near = tb < ta ? tb : ta, far = ta > tb ? ta : tb;
+      t0 = near > t0 ? near : t0;
+      t1 = far < t1 ? far : t1;
+    }
+    auto entry = t0 <= t1 ? t0 : float4{} + flt_inf;
+    std::memcpy(entries + k, &entry, sizeof(entry));
   }
-  return t0 <= t1;
 }
 
 // Few bounded objects: test their boxes in a loop and visit the crossed ones
@@ -354,13 +385,14 @@ static bool enter_bbox(
 // result is the same: each object's march ignores the visiting order.
 static scene_intersection intersect_linear(
     const accel_data& accel, const ray3f& ray) {
-  auto  inverse = vec3f{1 / ray.d.x, 1 / ray.d.y, 1 / ray.d.z};
+  float boxes[linear_max_objects];
+  enter_boxes(accel, ray, boxes);
   float entries[linear_max_objects];
   int   indices[linear_max_objects];
   auto  count = 0;
   for (auto k = 0; k < (int)accel.bounded.size(); k++) {
-    auto t0 = 0.0f;
-    if (!enter_bbox(ray, inverse, accel.bounded_boxes[k], t0)) continue;
+    auto t0 = boxes[k];
+    if (t0 == flt_inf) continue;
     // Insertion sort by entry distance.
     auto slot = count++;
     for (; slot > 0 && entries[slot - 1] > t0; slot--) {
@@ -383,10 +415,10 @@ static scene_intersection intersect_linear(
 
 // Whether any of few bounded objects is hit.
 static bool intersect_linear_any(const accel_data& accel, const ray3f& ray) {
-  auto inverse = vec3f{1 / ray.d.x, 1 / ray.d.y, 1 / ray.d.z};
+  float entries[linear_max_objects];
+  enter_boxes(accel, ray, entries);
   for (auto k = 0; k < (int)accel.bounded.size(); k++) {
-    auto t0 = 0.0f;
-    if (!enter_bbox(ray, inverse, accel.bounded_boxes[k], t0)) continue;
+    if (entries[k] == flt_inf) continue;
     if (intersect_object(accel, accel.bounded[k], ray, ray.tmax).hit)
       return true;
   }

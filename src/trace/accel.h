@@ -19,6 +19,7 @@
 // intersect_object(), and it is the same at any thread count.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -128,14 +129,17 @@ struct accel_data {
   march_params              march         = {};
   std::vector<int>          bounded       = {};  // BVH primitive -> object
   std::vector<bbox3f>       bounded_boxes = {};  // their padded world boxes
-  std::vector<int>          unbounded = {};  // objects tested beside the BVH
-  embree_bvh                bvh       = {};  // see march_params::linear_max
+  // The same boxes by axis (structure of arrays, padded to a multiple of 4):
+  // without a BVH the loop over them tests four at a time.
+  std::array<std::vector<float>, 3> bounded_min = {}, bounded_max = {};
+  std::vector<int> unbounded = {};  // objects tested beside the BVH
+  embree_bvh       bvh       = {};  // see march_params::linear_max
 };
 
 // Most bounded objects that intersect_scene() may test in a loop, sorted by
 // box entry, rather than through the BVH (whose per-ray cost is higher for
 // few objects); march_params::linear_max picks the number up to this.
-inline constexpr int linear_max_objects = 16;
+inline constexpr int linear_max_objects = 16;  // a multiple of 4
 
 // Build the objects of a scene. The result keeps no reference to the scene.
 accel_data make_accel(

@@ -162,6 +162,14 @@ lights_data make_lights(const scene_data& scene, const accel_data& accel) {
       continue;
     }
     if (light.area <= 0) continue;
+    // Rigid: the local sphere about the shape's centre is the world one
+    // (1% larger, so that rounding never rejects a crossing).
+    auto local_center =
+        node.type == sdf_type::box ? node.size * 0.5f : vec3f{0, 0, 0};
+    auto local_radius =
+        node.type == sdf_type::box ? length(node.size) * 0.5f : node.radius;
+    light.center = transform_point(object.world_from_local, local_center);
+    light.radius = local_radius * 1.01f;
     lights.lights.push_back(light);
   }
   for (auto i = 0; i < (int)scene.environments.size(); i++) {
@@ -235,10 +243,25 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
   return {0, 0, 0};
 }
 
+// Whether the ray can cross the light's bounding sphere ahead of its origin:
+// the origin is inside, or the sphere is ahead and the line passes within
+// its radius (the offset from the centre computed directly, not as a
+// difference of squares, which would lose the radius far from the light).
+static bool may_cross_light(const trace_light& light, const ray3f& ray) {
+  auto to     = light.center - ray.o;
+  auto radius = light.radius * light.radius;
+  if (dot(to, to) <= radius) return true;
+  auto along = dot(to, ray.d);
+  if (along <= 0) return false;
+  auto offset = to - ray.d * (along / dot(ray.d, ray.d));
+  return dot(offset, offset) <= radius;
+}
+
 // Area-to-solid-angle pdf of the points where the ray crosses a shape light:
 // sum of t^2 / (|cos| area) over the crossings in front of `position`.
 static float shape_light_pdf(
     const trace_object& object, const trace_light& light, const ray3f& world) {
+  if (!may_cross_light(light, world)) return 0;
   auto  ray  = transform_ray(object.local_from_world, world);
   auto& node = object.shape;
   auto  pdf  = 0.0f;

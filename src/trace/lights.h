@@ -41,6 +41,10 @@ struct trace_light {
   // the lookup on every bounce stays in cache and needs no division).
   std::vector<float> cell_pdfs = {};
   int                width = 0, height = 0;  // environment cells
+  // World bounding sphere of a box or sphere light: most directions miss
+  // the light, and this test rejects them before the exact one.
+  vec3f center = {0, 0, 0};
+  float radius = 0;
 };
 
 struct lights_data {
