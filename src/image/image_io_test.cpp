@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "../util/error.h"
@@ -161,6 +162,29 @@ TEST_CASE("image io tga and bmp round trip") {
       CHECK(std::abs(linear_to_srgb(a.z) - linear_to_srgb(b.z)) <=
             1.0f / 255 + 1e-6f);
     }
+  }
+}
+
+TEST_CASE("image io hdr: every RGBE exponent decodes to mantissa * 2^(e-136)") {
+  // One flat (not run-length) scanline of 256 texels: texel e has exponent
+  // e and mantissas 255, 128, 1, so that the largest and smallest powers
+  // (subnormal floats below e = 10) are all read.
+  auto dir = make_test_dir("hdr_exponents");
+  auto bytes =
+      std::string{"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 256\n"};
+  for (auto e = 0; e < 256; e++)
+    bytes += std::string{(char)255, (char)128, (char)1, (char)e};
+  auto filename = dir + "/exponents.hdr";
+  std::ofstream(filename, std::ios::binary) << bytes;
+  auto image = load_image(filename);
+  REQUIRE(image.width == 256);
+  CHECK(xyz(image.pixels[0]) == vec3f{0, 0, 0});  // exponent 0 is black
+  for (auto e = 1; e < 256; e++) {
+    auto& texel = image.pixels[e];
+    CHECK(texel.x == std::ldexp(255.0f, e - 136));
+    CHECK(texel.y == std::ldexp(128.0f, e - 136));
+    CHECK(texel.z == std::ldexp(1.0f, e - 136));
+    CHECK(texel.w == 1);
   }
 }
 
