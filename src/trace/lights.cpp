@@ -292,8 +292,8 @@ static float shape_light_pdf(
   return pdf;
 }
 
-float sample_lights_pdf(const accel_data& accel, const lights_data& lights,
-    vec3f position, vec3f direction) {
+float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, vec3f position, vec3f direction) {
   if (lights.lights.empty()) return 0;
   auto pdf = 0.0f;
   auto ray = ray3f{position, direction, 0, flt_max};
@@ -315,8 +315,11 @@ float sample_lights_pdf(const accel_data& accel, const lights_data& lights,
             lights.env_from_world[light.environment], direction);
         auto uv        = latlong_uv(wl);
         auto sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
-        auto i         = clamp((int)(uv.x * light.width), 0, light.width - 1);
-        auto j         = clamp((int)(uv.y * light.height), 0, light.height - 1);
+        auto texture   = scene.environments[light.environment].emission_tex;
+        if (texture >= 0 && texture < (int)scene.textures.size())
+          prefetch_image(scene.textures[texture].image, uv);
+        auto i = clamp((int)(uv.x * light.width), 0, light.width - 1);
+        auto j = clamp((int)(uv.y * light.height), 0, light.height - 1);
         if (sin_theta > 0)
           pdf +=
               picked * light.cell_pdfs[(size_t)j * light.width + i] / sin_theta;

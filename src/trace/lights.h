@@ -71,8 +71,10 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, vec3f position, float rl, float rel, vec2f ruv);
 
 // Solid-angle pdf of sample_lights() producing `direction` from `position`:
-// every point of every light along the direction contributes.
-float sample_lights_pdf(const accel_data& accel, const lights_data& lights,
-    vec3f position, vec3f direction);
+// every point of every light along the direction contributes. Like
+// sample_lights(), it starts reading the sky's texels along the direction:
+// the pdf of a direction is wanted just before its ray is traced.
+float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, vec3f position, vec3f direction);
 
 }  // namespace implicit

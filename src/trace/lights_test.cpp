@@ -14,14 +14,14 @@ namespace {
 
 // Integral of sample_lights_pdf over all directions from `position`, by
 // stratified quadrature in (cos theta, phi).
-double integrate_pdf(const accel_data& accel, const lights_data& lights,
-    vec3f position, int n = 800) {
+double integrate_pdf(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, vec3f position, int n = 800) {
   auto sum = 0.0;
   for (auto j = 0; j < n; j++) {
     for (auto i = 0; i < 2 * n; i++) {
       auto u = (i + 0.5f) / (2 * n), v = (j + 0.5f) / n;
       auto direction = sample_sphere({u, v});
-      sum += sample_lights_pdf(accel, lights, position, direction);
+      sum += sample_lights_pdf(scene, accel, lights, position, direction);
     }
   }
   return sum * (4 * pif) / (2.0 * n * n);
@@ -62,7 +62,7 @@ TEST_CASE("lights: environment pdf integrates to 1 and matches its samples") {
   auto accel  = make_accel(scene, accel_type::bvh, {});
   auto lights = make_lights(scene, accel);
   REQUIRE(lights.lights.size() == 1);
-  CHECK(integrate_pdf(accel, lights, {0, 0, 0}) ==
+  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}) ==
         doctest::Approx(1.0).epsilon(0.01));
   // Importance-sampled estimate of the environment's integral equals the
   // quadrature of the same integral.
@@ -80,7 +80,7 @@ TEST_CASE("lights: environment pdf integrates to 1 and matches its samples") {
   for (auto k = 0; k < samples; k++) {
     auto direction = sample_lights(
         scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
-    auto pdf = sample_lights_pdf(accel, lights, {0, 0, 0}, direction);
+    auto pdf = sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction);
     INFO(direction.x, " ", direction.y, " ", direction.z, " k ", k);
     REQUIRE(pdf > 0);
     estimate += eval_environment(scene, direction).x / pdf;
@@ -106,7 +106,7 @@ TEST_CASE("lights: box and sphere light pdfs integrate to 1 from outside") {
   auto lights = make_lights(scene, accel);
   REQUIRE(lights.lights.size() == 2);
   for (auto position : {vec3f{0, 0, 0}, vec3f{0.3f, 0.1f, -0.2f}}) {
-    CHECK(integrate_pdf(accel, lights, position, 1200) ==
+    CHECK(integrate_pdf(scene, accel, lights, position, 1200) ==
           doctest::Approx(1.0).epsilon(0.02));
   }
   // Samples point at the lights and have a positive pdf.
@@ -114,7 +114,7 @@ TEST_CASE("lights: box and sphere light pdfs integrate to 1 from outside") {
   for (auto k = 0; k < 1000; k++) {
     auto direction = sample_lights(
         scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
-    CHECK(sample_lights_pdf(accel, lights, {0, 0, 0}, direction) > 0);
+    CHECK(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction) > 0);
   }
 }
 
@@ -138,7 +138,7 @@ TEST_CASE(
   auto accel  = make_accel(scene, accel_type::bvh, {});
   auto lights = make_lights(scene, accel);
   CHECK(lights.lights.empty());
-  CHECK(sample_lights_pdf(accel, lights, {0, 0, 0}, {0, 1, 0}) == 0);
+  CHECK(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, {0, 1, 0}) == 0);
 }
 
 TEST_CASE("lights: picks and pdfs agree for two shape lights") {
@@ -170,7 +170,7 @@ TEST_CASE("lights: picks and pdfs agree for two shape lights") {
     auto direction = sample_lights(
         scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
     if (dot(direction, normalize(center)) >= cone) to_sphere++;
-    auto pdf = sample_lights_pdf(accel, lights, {0, 0, 0}, direction);
+    auto pdf = sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction);
     // A point on the flat box's 10-micron rim can round to a ray that misses
     // the box; such samples are rare and weigh nothing in a render.
     if (pdf > 0)
@@ -185,7 +185,7 @@ TEST_CASE("lights: picks and pdfs agree for two shape lights") {
   auto n       = 1200;
   for (auto j = 0; j < n; j++)
     for (auto i = 0; i < 2 * n; i++)
-      if (sample_lights_pdf(accel, lights, {0, 0, 0},
+      if (sample_lights_pdf(scene, accel, lights, {0, 0, 0},
               sample_sphere({(i + 0.5f) / (2 * n), (j + 0.5f) / n})) > 0)
         covered += 4 * pif / (2.0 * n * n);
   CHECK(
@@ -206,13 +206,13 @@ TEST_CASE("lights: large environments are sampled by cells of texels") {
   REQUIRE(lights.lights.size() == 1);
   CHECK(lights.lights[0].width == 515);
   CHECK(lights.lights[0].height == 250);
-  CHECK(integrate_pdf(accel, lights, {0, 0, 0}, 1000) ==
+  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}, 1000) ==
         doctest::Approx(1.0).epsilon(0.01));
   auto rng = make_rng(8);
   for (auto k = 0; k < 10000; k++) {
     auto direction = sample_lights(
         scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
-    REQUIRE(sample_lights_pdf(accel, lights, {0, 0, 0}, direction) > 0);
+    REQUIRE(sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction) > 0);
   }
 }
 
@@ -227,7 +227,7 @@ static double light_second_moment(
   for (auto k = 0; k < samples; k++) {
     auto direction = sample_lights(
         scene, accel, lights, {0, 0, 0}, rand1f(rng), rand1f(rng), rand2f(rng));
-    auto pdf = sample_lights_pdf(accel, lights, {0, 0, 0}, direction);
+    auto pdf = sample_lights_pdf(scene, accel, lights, {0, 0, 0}, direction);
     auto value =
         pdf > 0 ? max(eval_environment(scene, lights, direction)) / pdf : 0.0f;
     sum += value;
@@ -251,7 +251,7 @@ TEST_CASE("lights: smooth environments get coarse cells, small suns fine") {
   REQUIRE(lights.lights.size() == 1);
   CHECK(lights.lights[0].width < 512);
   CHECK(lights.lights[0].width == 2 * lights.lights[0].height);
-  CHECK(integrate_pdf(accel, lights, {0, 0, 0}, 1000) ==
+  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}, 1000) ==
         doctest::Approx(1.0).epsilon(0.01));
   // Coarse cells still follow the radiance: within the 1% budget (and the
   // bilinear texels' spread), Monte Carlo noise aside.
@@ -268,7 +268,7 @@ TEST_CASE("lights: smooth environments get coarse cells, small suns fine") {
   REQUIRE(lights.lights.size() == 1);
   CHECK(lights.lights[0].width == 256);
   CHECK(lights.lights[0].height == 128);
-  CHECK(integrate_pdf(accel, lights, {0, 0, 0}, 1000) ==
+  CHECK(integrate_pdf(scene, accel, lights, {0, 0, 0}, 1000) ==
         doctest::Approx(1.0).epsilon(0.01));
 }
 

@@ -215,11 +215,11 @@ static bool update_weight(
 }
 
 // Weight for emission reached by a BSDF-sampled direction.
-static float emission_weight(const accel_data& accel, const lights_data& lights,
-    const path_state& path, vec3f direction) {
+static float emission_weight(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const path_state& path, vec3f direction) {
   if (path.bsdf_pdf <= 0) return 1.0f;
-  return power_heuristic(
-      path.bsdf_pdf, sample_lights_pdf(accel, lights, path.from, direction));
+  return power_heuristic(path.bsdf_pdf,
+      sample_lights_pdf(scene, accel, lights, path.from, direction));
 }
 
 // A light direction from `position` (three numbers drawn in order).
@@ -252,7 +252,7 @@ static bool shade_medium(const scene_data& scene, const accel_data& accel,
   auto pdf = sample_scattering_pdf(medium, outgoing, incoming);
   if (use_lights)
     pdf = 0.5f * pdf +
-          0.5f * sample_lights_pdf(accel, lights, position, incoming);
+          0.5f * sample_lights_pdf(scene, accel, lights, position, incoming);
   if (!update_weight(
           path, incoming, eval_scattering(medium, outgoing, incoming), pdf))
     return false;
@@ -295,7 +295,7 @@ static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
             : sample_lights_next(scene, accel, lights, point.position, sampler);
   if (light != vec3f{0, 0, 0}) {
     auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
-    auto lpdf    = sample_lights_pdf(accel, lights, point.position, light);
+    auto lpdf = sample_lights_pdf(scene, accel, lights, point.position, light);
     if (bsdfcos != vec3f{0, 0, 0} && lpdf > 0) {
       auto bpdf = sample_bsdfcos_pdf(material, point.normal, outgoing, light);
       auto le   = eval_unscattered(
@@ -337,8 +337,8 @@ static vec3f shade_one_sample(const scene_data& scene, const accel_data& accel,
   if (incoming == vec3f{0, 0, 0}) return incoming;
   auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
   if (use_lights)
-    pdf = 0.5f * pdf +
-          0.5f * sample_lights_pdf(accel, lights, point.position, incoming);
+    pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(scene, accel, lights,
+                                  point.position, incoming);
   if (!update_weight(path, incoming,
           eval_bsdfcos(material, point.normal, outgoing, incoming), pdf))
     return {0, 0, 0};
@@ -381,9 +381,9 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     evaluations += isec.evaluations;
     if (!isec.hit) {
       if (bounce > 0 || !params.envhidden)
-        path.radiance += path.weight *
-                         eval_environment(scene, lights, path.ray.d) *
-                         emission_weight(accel, lights, path, path.ray.d);
+        path.radiance +=
+            path.weight * eval_environment(scene, lights, path.ray.d) *
+            emission_weight(scene, accel, lights, path, path.ray.d);
       break;
     }
 
@@ -429,7 +429,7 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       auto emission = eval_emission(material, point.normal, outgoing);
       auto mis      = emission == vec3f{0, 0, 0}
                           ? 1.0f
-                          : emission_weight(accel, lights, path, path.ray.d);
+                          : emission_weight(scene, accel, lights, path, path.ray.d);
       path.radiance += path.weight * emission * mis;
 
       auto incoming = vec3f{0, 0, 0};
