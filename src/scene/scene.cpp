@@ -56,6 +56,11 @@ ray3f eval_camera(const camera_data& camera, vec2f image_uv, vec2f lens_uv) {
     auto dc = -normalize(q);
     auto e  = vec3f{
         lens_uv.x * camera.aperture / 2, lens_uv.y * camera.aperture / 2, 0};
+    // From the lens centre the ray to the focus plane is dc itself: skip the
+    // division and second normalization (a pinhole's every ray).
+    if (e.x == 0 && e.y == 0)
+      return {transform_point(camera.frame, e),
+          transform_direction(camera.frame, dc)};
     auto p = dc * camera.focus / std::abs(dc.z);
     auto d = normalize(p - e);
     return {

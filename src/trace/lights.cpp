@@ -315,9 +315,11 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
             lights.env_from_world[light.environment], direction);
         auto uv        = latlong_uv(wl);
         auto sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
-        auto texture   = scene.environments[light.environment].emission_tex;
-        if (texture >= 0 && texture < (int)scene.textures.size())
-          prefetch_image(scene.textures[texture].image, uv);
+        if (light.environment < (int)scene.environments.size()) {
+          auto texture = scene.environments[light.environment].emission_tex;
+          if (texture >= 0 && texture < (int)scene.textures.size())
+            prefetch_image(scene.textures[texture].image, uv);
+        }
         auto i = clamp((int)(uv.x * light.width), 0, light.width - 1);
         auto j = clamp((int)(uv.y * light.height), 0, light.height - 1);
         if (sin_theta > 0)

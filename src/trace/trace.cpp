@@ -100,10 +100,6 @@ static float power_heuristic(float pdf, float other) {
 // volumetric boundaries).
 inline constexpr int max_crossings = 16;
 
-// Radiance arriving at a point from `ray` without scattering: the emission of
-// the first surface that blocks it, or the environment. Surfaces with opacity
-// let (1 - opacity) through and volumetric (pass-through) objects attenuate
-// by their transmittance, both deterministically; any other surface blocks.
 // A surface that stops light samples and adds nothing to them: opaque
 // everywhere (no color texture whose alpha could lower it), emitting nothing,
 // not a volumetric pass-through. Light samples that hit one need neither its
@@ -117,6 +113,10 @@ static bool blocks_without_emission(
          material.color_tex < 0 && max(material.emission) <= 0;
 }
 
+// Radiance arriving at a point from `ray` without scattering: the emission of
+// the first surface that blocks it, or the environment. Surfaces with opacity
+// let (1 - opacity) through and volumetric (pass-through) objects attenuate
+// by their transmittance, both deterministically; any other surface blocks.
 static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, ray3f ray, int64_t& evaluations) {
   auto transmittance = vec3f{1, 1, 1};
