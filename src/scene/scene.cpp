@@ -106,6 +106,11 @@ vec4f eval_texture(const scene_data& scene, int texture, vec2f uv) {
   return eval_image(scene.textures[texture].image, uv);
 }
 
+void prefetch_texture(const scene_data& scene, int texture, vec2f uv) {
+  if (texture < 0 || texture >= (int)scene.textures.size()) return;
+  prefetch_image(scene.textures[texture].image, uv);
+}
+
 vec3f eval_environment(const scene_data& scene,
     const environment_data& environment, const frame3f& env_from_world,
     vec3f direction) {

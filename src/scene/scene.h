@@ -151,6 +151,9 @@ ray3f eval_camera(const camera_data& camera, vec2f image_uv, vec2f lens_uv);
 
 // Texture lookup (linear RGBA); an invalid index gives white.
 vec4f eval_texture(const scene_data& scene, int texture, vec2f uv);
+// Start reading the texels eval_texture() will read (a hint, see
+// prefetch_image()); nothing for a missing texture.
+void prefetch_texture(const scene_data& scene, int texture, vec2f uv);
 
 // Environment radiance along a world direction (sum of all environments).
 vec3f eval_environment(const scene_data& scene, vec3f direction);

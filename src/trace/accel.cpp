@@ -133,18 +133,19 @@ accel_data make_accel(
       accel.unbounded.push_back(i);
     }
   }
-  for (auto index : accel.bounded)
-    accel.bounded_boxes.push_back(
-        expand(accel.objects[index].world_bounds, padding));
-  // Padded to a multiple of 4 (whatever the padding holds is never read as
-  // an object: callers look at the first bounded.size() entries).
+  // Padded boxes by axis, padded in count to a multiple of 4 (whatever the
+  // padding holds is never read as an object: callers look at the first
+  // bounded.size() entries).
+  auto lanes = (accel.bounded.size() + 3) / 4 * 4;
   for (auto a = 0; a < 3; a++) {
-    auto size = (accel.bounded_boxes.size() + 3) / 4 * 4;
-    accel.bounded_min[a].assign(size, 0.0f);
-    accel.bounded_max[a].assign(size, 0.0f);
-    for (size_t k = 0; k < accel.bounded_boxes.size(); k++) {
-      accel.bounded_min[a][k] = at(accel.bounded_boxes[k].min, a);
-      accel.bounded_max[a][k] = at(accel.bounded_boxes[k].max, a);
+    accel.bounded_min[a].assign(lanes, 0.0f);
+    accel.bounded_max[a].assign(lanes, 0.0f);
+  }
+  for (size_t k = 0; k < accel.bounded.size(); k++) {
+    auto box = expand(accel.objects[accel.bounded[k]].world_bounds, padding);
+    for (auto a = 0; a < 3; a++) {
+      accel.bounded_min[a][k] = at(box.min, a);
+      accel.bounded_max[a][k] = at(box.max, a);
     }
   }
   auto linear_max = std::min(accel.march.linear_max, linear_max_objects);

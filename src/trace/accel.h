@@ -120,17 +120,17 @@ struct embree_bvh {
 // The objects and what the tracer needs to know about the whole scene.
 // Move-only (it owns the BVH); objects must not change after make_accel().
 struct accel_data {
-  accel_type                type          = accel_type::bvh;
-  std::vector<trace_object> objects       = {};
-  bbox3f                    bounds        = {};  // finite bounds of all objects
-  bbox3f                    extent        = {};  // all bounds, maybe infinite
-  float                     size          = 1;   // diagonal of bounds
-  float                     hit_min       = 1e-6f;
-  march_params              march         = {};
-  std::vector<int>          bounded       = {};  // BVH primitive -> object
-  std::vector<bbox3f>       bounded_boxes = {};  // their padded world boxes
-  // The same boxes by axis (structure of arrays, padded to a multiple of 4):
-  // without a BVH the loop over them tests four at a time.
+  accel_type                type    = accel_type::bvh;
+  std::vector<trace_object> objects = {};
+  bbox3f                    bounds  = {};  // finite bounds of all objects
+  bbox3f                    extent  = {};  // all bounds, maybe infinite
+  float                     size    = 1;   // diagonal of bounds
+  float                     hit_min = 1e-6f;
+  march_params              march   = {};
+  std::vector<int>          bounded = {};  // BVH primitive -> object
+  // Their padded world boxes by axis (structure of arrays, the count padded
+  // to a multiple of 4): without a BVH the loop over them tests four at a
+  // time.
   std::array<std::vector<float>, 3> bounded_min = {}, bounded_max = {};
   std::vector<int> unbounded = {};  // objects tested beside the BVH
   embree_bvh       bvh       = {};  // see march_params::linear_max

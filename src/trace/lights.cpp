@@ -234,9 +234,7 @@ vec3f sample_lights(const scene_data& scene, const accel_data& accel,
       auto uv  = vec2f{((idx % light.width) + u) / light.width,
           ((idx / light.width) + ruv.y) / light.height};
       // Its radiance is looked up once the ray is traced: start reading it.
-      auto texture = environment.emission_tex;
-      if (texture >= 0 && texture < (int)scene.textures.size())
-        prefetch_image(scene.textures[texture].image, uv);
+      prefetch_texture(scene, environment.emission_tex, uv);
       return transform_direction(environment.frame, latlong_direction(uv));
     }
   }
@@ -315,11 +313,9 @@ float sample_lights_pdf(const scene_data& scene, const accel_data& accel,
             lights.env_from_world[light.environment], direction);
         auto uv        = latlong_uv(wl);
         auto sin_theta = std::sqrt(wl.x * wl.x + wl.z * wl.z);
-        if (light.environment < (int)scene.environments.size()) {
-          auto texture = scene.environments[light.environment].emission_tex;
-          if (texture >= 0 && texture < (int)scene.textures.size())
-            prefetch_image(scene.textures[texture].image, uv);
-        }
+        if (light.environment < (int)scene.environments.size())
+          prefetch_texture(
+              scene, scene.environments[light.environment].emission_tex, uv);
         auto i = clamp((int)(uv.x * light.width), 0, light.width - 1);
         auto j = clamp((int)(uv.y * light.height), 0, light.height - 1);
         if (sin_theta > 0)

@@ -424,8 +424,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       }
       if (bounce == 0) path.hit = true;
 
-      // Most surfaces emit nothing: their MIS weight (a light pdf, which
-      // misses the cache on large environments) is not needed.
+      // Most surfaces emit nothing: their MIS weight (a light pdf over every
+      // light) is not needed.
       auto emission = eval_emission(material, point.normal, outgoing);
       auto mis      = emission == vec3f{0, 0, 0}
                           ? 1.0f
