@@ -470,90 +470,113 @@ static bool solve_voxel_cubic(
 struct grid_march {
   vec3f u0     = {};
   vec3f du     = {};
-  vec3f inv_du = {};  // 0 where du is 0 (the axis is never crossed)
   vec3i step   = {};
   float length = 0;
   bool  inside = false;  // searching for the way out of the solid
+  // Exit planes: the ray leaves voxels ..c (stepping +) or c.. (stepping -)
+  // of an axis at s = (c + ahead - plane_u0) * plane_inv. An axis the ray
+  // never crosses has plane_u0 = -inf and plane_inv = 1: its exits are +inf.
+  vec3i ahead     = {};  // 1 stepping +, else 0
+  vec3f plane_u0  = {};
+  vec3f plane_inv = {};
 };
 
-// Parameter s where the ray leaves the voxels [lo, hi] of `axis`.
-static float slab_exit(const grid_march& m, int lo, int hi, int axis) {
-  auto d = at(m.du, axis);
-  if (d == 0) return flt_max;
-  auto plane = (float)(d > 0 ? hi + 1 : lo);
-  return (plane - at(m.u0, axis)) * at(m.inv_du, axis);
+// Parameter s where the ray leaves, on one axis, the voxels up to `bound`
+// (the last of them ahead of it).
+static float plane_exit(int bound, int ahead, float plane_u0, float inv) {
+  return ((float)(bound + ahead) - plane_u0) * inv;
 }
 
-// One coordinate of the voxel after a step that left the cube [lo, hi]:
-// past it on the exit axis, else where the ray is (u, truncation being
-// floor once clamped to lo >= 0), never behind c; unchanged after a single
-// voxel (skip 0).
+// One coordinate of the voxel after leaving the cube [lo, hi]: past it on
+// the exit axis, else where the ray is (u, truncation being floor once
+// clamped to lo >= 0), never behind c.
 static int next_voxel(
-    int c, int lo, int hi, int step, float u, bool exit_axis, int skip) {
+    int c, int lo, int hi, int step, float u, bool exit_axis) {
   if (exit_axis) return step > 0 ? hi + 1 : lo - 1;
-  auto at_u  = clamp((int)u, lo, hi);
-  auto moved = step > 0 ? std::max(c, at_u) : std::min(c, at_u);
-  return skip > 0 && step != 0 ? moved : c;
+  auto at_u = clamp((int)u, lo, hi);
+  if (step > 0) return std::max(c, at_u);
+  return step < 0 ? std::min(c, at_u) : c;
 }
 
 // Walk the voxels over [0, m.length]; true with the hit's s. In a block
 // whose skip distance d is positive the walk jumps over the cube of blocks
 // within d-1 steps of it (clipped to the grid), none of which can hold a
-// crossing; in the others it steps voxel by voxel and solves those whose
-// bit is set.
+// crossing; in the others it steps voxel by voxel, across the nearest exit
+// plane, and solves the voxels whose bit is set.
 static bool march_grid(
     const grid_data& grid, const grid_march& m, float& s_hit, int& steps) {
   auto last  = vec3i{grid.dims.x - 2, grid.dims.y - 2, grid.dims.z - 2};
   auto nb    = block_dims(grid.dims);
   auto shift = m.inside ? 4 : 0;
+  auto side  = m.inside ? 8 : 0;
   auto c     = vec3i{clamp((int)std::floor(m.u0.x), 0, last.x),
       clamp((int)std::floor(m.u0.y), 0, last.y),
       clamp((int)std::floor(m.u0.z), 0, last.z)};
   auto s     = 0.0f;
+  auto count = 0;
   for (;;) {
-    steps++;
-    auto b     = vec3i{c.x >> 1, c.y >> 1, c.z >> 1};
+    count++;
     auto block = block_index(nb, c);
     auto skip  = (grid.block_skips[block] >> shift) & 15;
-    // Cube of blocks within skip-1 of b (in voxels), or voxel c alone.
-    auto reach = skip - 1;
-    auto lo    = vec3i{skip ? std::max(b.x - reach, 0) * 2 : c.x,
-        skip ? std::max(b.y - reach, 0) * 2 : c.y,
-        skip ? std::max(b.z - reach, 0) * 2 : c.z};
-    auto hi = vec3i{skip ? std::min((b.x + reach) * 2 + 1, last.x) : c.x,
-        skip ? std::min((b.y + reach) * 2 + 1, last.y) : c.y,
-        skip ? std::min((b.z + reach) * 2 + 1, last.z) : c.z};
-    auto ex = slab_exit(m, lo.x, hi.x, 0), ey = slab_exit(m, lo.y, hi.y, 1),
-         ez     = slab_exit(m, lo.z, hi.z, 2);
+    // The cube of blocks within skip-1 of c's block (in voxels), or voxel c
+    // alone.
+    auto lo = c, hi = c;
+    if (skip > 0) {
+      auto reach = skip - 1;
+      lo         = {std::max((c.x >> 1) - reach, 0) * 2,
+                  std::max((c.y >> 1) - reach, 0) * 2,
+                  std::max((c.z >> 1) - reach, 0) * 2};
+      hi         = {std::min(((c.x >> 1) + reach) * 2 + 1, last.x),
+                  std::min(((c.y >> 1) + reach) * 2 + 1, last.y),
+                  std::min(((c.z >> 1) + reach) * 2 + 1, last.z)};
+    }
+    auto ex = plane_exit(
+        m.step.x < 0 ? lo.x : hi.x, m.ahead.x, m.plane_u0.x, m.plane_inv.x);
+    auto ey = plane_exit(
+        m.step.y < 0 ? lo.y : hi.y, m.ahead.y, m.plane_u0.y, m.plane_inv.y);
+    auto ez = plane_exit(
+        m.step.z < 0 ? lo.z : hi.z, m.ahead.z, m.plane_u0.z, m.plane_inv.z);
     auto e      = std::min(ex, std::min(ey, ez));
-    auto axis   = e == ex ? 0 : (e == ey ? 1 : 2);
     auto s_exit = std::max(s, std::min(e, m.length));
-    auto bit    = voxel_bit(c) + (m.inside ? 8 : 0);
-    if (skip == 0 && ((grid.voxel_masks[block] >> bit) & 1)) {
+    if (skip == 0 && ((grid.voxel_masks[block] >> (voxel_bit(c) + side)) & 1)) {
       float v[8];
       voxel_corners(grid, c, v);
       auto origin = m.u0 + m.du * s - vec3f{(float)c.x, (float)c.y, (float)c.z};
       auto cubic  = make_voxel_cubic(v, origin, m.du);
       auto s_in   = 0.0f;
       if (solve_voxel_cubic(cubic, s_exit - s, m.inside, s_in)) {
+        steps += count;
         s_hit = s + s_in;
         return true;
       }
     }
-    if (s_exit >= m.length) return false;
-    // Next voxel: just past the cube on the exit axis; on the others where
-    // the ray is, kept in the cube and never behind the current voxel, so
-    // that every step moves forward whatever the rounding. Per axis and
-    // without indexing, so that the voxel stays in registers.
-    auto u = m.u0 + m.du * s_exit;
-    c      = {next_voxel(c.x, lo.x, hi.x, m.step.x, u.x, axis == 0, skip),
-             next_voxel(c.y, lo.y, hi.y, m.step.y, u.y, axis == 1, skip),
-             next_voxel(c.z, lo.z, hi.z, m.step.z, u.z, axis == 2, skip)};
+    if (s_exit >= m.length) break;
+    if (skip == 0) {
+      // Into the neighbour across the nearest plane.
+      if (e == ex)
+        c.x += m.step.x;
+      else if (e == ey)
+        c.y += m.step.y;
+      else
+        c.z += m.step.z;
+    } else {
+      // Just past the cube on the exit axis; on the others where the ray
+      // is, kept in the cube and never behind the current voxel, so that
+      // every step moves forward whatever the rounding. Per axis and without
+      // indexing, so that the voxel stays in registers.
+      auto axis = e == ex ? 0 : (e == ey ? 1 : 2);
+      auto u    = m.u0 + m.du * s_exit;
+      c         = {next_voxel(c.x, lo.x, hi.x, m.step.x, u.x, axis == 0),
+                  next_voxel(c.y, lo.y, hi.y, m.step.y, u.y, axis == 1),
+                  next_voxel(c.z, lo.z, hi.z, m.step.z, u.z, axis == 2)};
+    }
+    s = s_exit;
     if ((unsigned)c.x > (unsigned)last.x || (unsigned)c.y > (unsigned)last.y ||
         (unsigned)c.z > (unsigned)last.z)
-      return false;
-    s = s_exit;
+      break;
   }
+  steps += count;
+  return false;
 }
 
 bool intersect_grid(
@@ -587,8 +610,10 @@ bool intersect_grid(
     // as 0, so that no exit time is inf * 0 = NaN.
     auto& d = at(m.du, a);
     if (!std::isfinite(1 / d)) d = 0;
-    at(m.inv_du, a) = d != 0 ? 1 / d : 0;
-    (&m.step.x)[a]  = d > 0 ? 1 : (d < 0 ? -1 : 0);
+    (&m.step.x)[a]     = d > 0 ? 1 : (d < 0 ? -1 : 0);
+    (&m.ahead.x)[a]    = d > 0 ? 1 : 0;
+    at(m.plane_u0, a)  = d != 0 ? at(m.u0, a) : -flt_inf;
+    at(m.plane_inv, a) = d != 0 ? 1 / d : 1;
   }
 
   // State at t0: a ray that enters the box where the interpolant is
