@@ -282,17 +282,15 @@ static vec3f shade_delta(
 
 // Two-sample MIS: a light sample traced to whatever emits along it, then a
 // BSDF sample that continues the path, both weighted by the power heuristic.
-// At the last bounce the path would not look at what its BSDF sample finds,
-// so there is no light sample either (`last`): it would count a share of
+// Never called at the last bounce, whose light sample would count a share of
 // paths one bounce longer than one-sample MIS and the BSDF alone reach.
 static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, path_state& path, const surface_point& point,
-    bool last, path_sampler& sampler, int64_t& evaluations) {
+    path_sampler& sampler, int64_t& evaluations) {
   auto& material = point.material;
   auto  outgoing = -path.ray.d;
   auto  light =
-      last ? vec3f{0, 0, 0}
-            : sample_lights_next(scene, accel, lights, point.position, sampler);
+      sample_lights_next(scene, accel, lights, point.position, sampler);
   if (light != vec3f{0, 0, 0}) {
     auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
     auto lpdf = sample_lights_pdf(scene, accel, lights, point.position, light);
@@ -377,6 +375,9 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
   // Straight-through opacity hits do not count as bounces.
   auto bounce = 0;
   while (bounce < params.bounces) {
+    // The last bounce only collects the emission it lands on: the direction
+    // it would scatter to is never traced.
+    auto last = bounce + 1 == params.bounces;
     auto isec = intersect_scene(accel, path.ray);
     evaluations += isec.evaluations;
     if (!isec.hit) {
@@ -404,11 +405,16 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     }
 
     if (in_volume) {
+      if (last) break;
       auto position = ray_point(path.ray, isec.distance);
       if (!shade_medium(
               scene, accel, lights, use_lights, path, position, sampler))
         break;
     } else {
+      // Nor does it need the normal and textures of a surface without
+      // emission that light can not pass.
+      if (last && blocks_without_emission(scene, accel.objects[isec.object]))
+        break;
       auto  point    = eval_surface(scene, accel, path.ray, isec);
       auto  outgoing = -path.ray.d;
       auto& material = point.material;
@@ -431,13 +437,14 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
                           ? 1.0f
                           : emission_weight(scene, accel, lights, path, path.ray.d);
       path.radiance += path.weight * emission * mis;
+      if (last) break;
 
       auto incoming = vec3f{0, 0, 0};
       if (is_delta(material)) {
         incoming = shade_delta(path, point, sampler);
       } else if (two_sample && path.volumes.size == 0) {
-        incoming = shade_two_sample(scene, accel, lights, path, point,
-            bounce + 1 == params.bounces, sampler, evaluations);
+        incoming = shade_two_sample(
+            scene, accel, lights, path, point, sampler, evaluations);
       } else {
         incoming = shade_one_sample(
             scene, accel, lights, use_lights, path, point, sampler);
