@@ -5,7 +5,8 @@
 // remaining, rewritten in place with '\r' on stderr. The line is built by a
 // pure function (format_progress) so that it can be tested; the state lives
 // in a progress_state owned by the caller (no global state). Updates must
-// come from one thread only (the render loop), between samples.
+// come one at a time: from the render loop, or from the render's tile
+// callback, which never runs twice at once.
 #pragma once
 
 #include <chrono>
