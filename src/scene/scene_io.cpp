@@ -664,12 +664,14 @@ scene_data parse_scene(const std::string& text, const std::string& filename,
   // Files last, relative to the scene's directory, loaded in parallel (each
   // into its own element). Their errors are wrapped with the element and key
   // that named them; the first one in the file's order is reported.
+  // Textures start first: a sky decodes to many times its file's size.
   auto directory = std::filesystem::path(filename).parent_path();
   auto volumes   = scene.volumes.size();
   auto count     = volumes + scene.textures.size();
   auto errors    = std::vector<std::string>(count);
   auto failed    = std::vector<char>(count, 0);
-  tbb::parallel_for(size_t{0}, count, [&](size_t k) {
+  tbb::parallel_for(size_t{0}, count, [&](size_t order) {
+    auto k = (order + volumes) % count;  // textures, then volumes
     try {
       if (k < volumes) {
         auto& volume = scene.volumes[k];

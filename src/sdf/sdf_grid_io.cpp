@@ -147,13 +147,18 @@ static bool is_space(char c) {
          c == '\f';
 }
 
-// Next token, or false at the end of the text.
-static bool next_token(text_reader& r, const char*& begin, const char*& end) {
+// Skip whitespace; false at the end of the text.
+static bool skip_spaces(text_reader& r) {
   while (r.p < r.end && is_space(*r.p)) {
     if (*r.p == '\n') r.line++;
     r.p++;
   }
-  if (r.p == r.end) return false;
+  return r.p < r.end;
+}
+
+// Next token, or false at the end of the text.
+static bool next_token(text_reader& r, const char*& begin, const char*& end) {
+  if (!skip_spaces(r)) return false;
   begin = r.p;
   while (r.p < r.end && !is_space(*r.p)) r.p++;
   end = r.p;
@@ -172,6 +177,20 @@ static bool parse_number(const char* begin, const char* end, T& value) {
   if (begin < end && *begin == '+') begin++;
   auto [ptr, ec] = std::from_chars(begin, end, value);
   return ec == std::errc{} && ptr == end;
+}
+
+// The token at r.p as a number, read where it starts so that the millions
+// of samples are scanned once; on failure `end` marks the token's end.
+static bool read_number(text_reader& r, float& value, const char*& end) {
+  auto begin     = r.p < r.end && *r.p == '+' ? r.p + 1 : r.p;
+  auto [ptr, ec] = std::from_chars(begin, r.end, value);
+  if (ec == std::errc{} && ptr != begin && (ptr == r.end || is_space(*ptr))) {
+    r.p = ptr;
+    return true;
+  }
+  end = r.p;
+  while (end < r.end && !is_space(*end)) end++;
+  return false;
 }
 
 // Read one header number or throw naming the field.
@@ -223,15 +242,15 @@ static grid_data load_sdfgen(const std::string& filename) {
             std::to_string(remaining) + " bytes follow");
   assign_huge(grid.values, (size_t)count, 0.0f);
   for (auto n = int64_t{0}; n < count; n++) {
-    const char *begin = nullptr, *end = nullptr;
-    if (!next_token(r, begin, end))
+    if (!skip_spaces(r))
       throw_at_line(filename, r.line,
           "too few values: expected " + std::to_string(count) + ", found " +
               std::to_string(n));
     auto& value = grid.values[(size_t)n];
-    if (!parse_number(begin, end, value))
+    auto  end   = r.p;
+    if (!read_number(r, value, end))
       throw_at_line(filename, r.line,
-          sample_name(grid.dims, n) + ": '" + token_excerpt(begin, end) +
+          sample_name(grid.dims, n) + ": '" + token_excerpt(r.p, end) +
               "' is not a number");
     if (!std::isfinite(value))
       throw_at_line(filename, r.line,

@@ -2,6 +2,8 @@
 
 #include "lights.h"
 
+#include <tbb/parallel_for.h>
+
 #include "../math/sampling.h"
 #include "../sdf/sdf_primitives.h"
 
@@ -108,17 +110,22 @@ static void make_environment_table(
   cells.f      = f;
   cells.weights.assign((size_t)cells.width * cells.height, 0.0);
   cells.squares.assign(cells.weights.size(), 0.0);
-  for (auto j = 0; j < image.height; j++) {
-    auto sin_theta = std::sin((j + 0.5f) * pif / image.height);
-    auto row       = (size_t)(j / f) * cells.width;
-    for (auto i = 0; i < image.width; i++) {
-      auto& texel  = pixel(image, i, j);
-      auto  weight = std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
-      if (!(std::isfinite(weight) && weight > 0)) continue;
-      cells.weights[row + i / f] += weight;
-      cells.squares[row + i / f] += (double)weight * weight;
+  // Rows of cells in parallel (a large sky is read at start-up, before the
+  // render), each summing its texels in the same order as a serial loop.
+  tbb::parallel_for(0, cells.height, [&](int cell_row) {
+    auto row = (size_t)cell_row * cells.width;
+    for (auto j = cell_row * f; j < std::min((cell_row + 1) * f, image.height);
+         j++) {
+      auto sin_theta = std::sin((j + 0.5f) * pif / image.height);
+      for (auto i = 0; i < image.width; i++) {
+        auto& texel = pixel(image, i, j);
+        auto weight = std::max(texel.x, std::max(texel.y, texel.z)) * sin_theta;
+        if (!(std::isfinite(weight) && weight > 0)) continue;
+        cells.weights[row + i / f] += weight;
+        cells.squares[row + i / f] += (double)weight * weight;
+      }
     }
-  }
+  });
   auto budget = cell_second_moment(cells, image) + max_cell_second_moment_rise;
   while (cells.width > 1 || cells.height > 1) {
     auto coarse = coarser_cells(cells);
