@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -95,6 +96,34 @@ TEST_CASE("cli: renders the example in every output format") {
     CHECK(image.width == 48);
     CHECK(image.height == 20);
   }
+}
+
+TEST_CASE("cli: passes and --savebatch images do not change the render") {
+  // 70 samples: without --savebatch two passes (64 + 6), with --savebatch 1
+  // seventy; each pixel sums the same samples in the same order either way.
+  auto dir    = test_dir("cli_passes");
+  auto render = [&](const std::string& name, const std::string& options) {
+    auto out    = (dir / name).string();
+    auto result = run_ypathtrace("--scene " + example_scene() + " --output " +
+                                 out + " --resolution 16 --quiet " + options);
+    INFO(result.output);
+    REQUIRE(result.status == 0);
+    return implicit::load_image(out).pixels;
+  };
+  auto same = [](const std::vector<implicit::vec4f>&  a,
+                  const std::vector<implicit::vec4f>& b) {
+    return a.size() == b.size() &&
+           std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0;
+  };
+  auto passes  = render("passes.exr", "--samples 70");
+  auto batches = render("batches.exr", "--samples 70 --savebatch 1");
+  CHECK(same(passes, batches));
+  auto three = render("three.exr", "--samples 3");
+  CHECK(same(implicit::load_image((dir / "batches-s0003.exr").string()).pixels,
+      three));
+  CHECK(fs::exists(dir / "batches-s0069.exr"));
+  CHECK(!fs::exists(dir / "batches-s0070.exr"));  // the final image instead
+  CHECK(!fs::exists(dir / "passes-s0064.exr"));
 }
 
 TEST_CASE("cli: a scene without lights falls back to eyelight") {

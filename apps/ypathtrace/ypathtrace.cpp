@@ -191,6 +191,10 @@ static void on_signal(int) { interrupted.store(true); }
 
 static bool is_interrupted(void*) { return interrupted.load(); }
 
+// Samples per pixel in one pass at most: Ctrl-C is seen between tiles, so a
+// tile must not take long.
+static constexpr int max_pass_samples = 64;
+
 // The bar during one pass of `count` samples from `first`: it moves as the
 // pass's tiles finish (the library calls one at a time).
 struct pass_progress {
@@ -250,27 +254,30 @@ static int run(app_options& opts) {
   auto progress = progress_state{};
   start_progress(progress, "render " + opts.scene, params.samples,
       !opts.quiet && stderr_is_terminal());
-  // One pass up to each --savebatch image, or one for the whole render:
-  // every pixel then takes its samples one after the other, and each finds
-  // in cache what the previous one read (about 8% faster on the seed's
-  // scenes at 32 spp than a pass per sample). The image is the same.
-  auto pass_size = opts.savebatch > 0 ? opts.savebatch : params.samples;
-  for (auto sample = 0; sample < params.samples; sample += pass_size) {
-    auto count     = std::min(pass_size, params.samples - sample);
-    auto pass      = pass_progress{&progress, sample, count};
+  // Passes of up to max_pass_samples, ending at each --savebatch image:
+  // every pixel takes a pass's samples one after the other, and each finds
+  // in cache what the previous one read (3-10% faster on the seed's scenes
+  // at 32 spp than a pass per sample). The image is the same.
+  for (auto sample = 0; sample < params.samples;) {
+    auto end = std::min(params.samples, sample + max_pass_samples);
+    if (opts.savebatch > 0)
+      end = std::min(end, (sample / opts.savebatch + 1) * opts.savebatch);
+    auto pass      = pass_progress{&progress, sample, end - sample};
     auto callbacks = render_callbacks{on_tile_done, is_interrupted, &pass};
-    if (!render_step(*context, state, count, callbacks)) {
+    if (!render_step(*context, state, end - sample, callbacks)) {
       end_progress(progress);
       std::fprintf(stderr,
           "ypathtrace: interrupted after %d of %d samples; %s not written\n",
           state.samples, params.samples, opts.output.c_str());
       return 130;
     }
-    update_progress(progress, sample + count);
-    if (opts.savebatch > 0 && sample + count < params.samples) {
-      save_image(batch_filename(opts.output, sample + count), get_image(state),
+    update_progress(progress, end);
+    if (opts.savebatch > 0 && end % opts.savebatch == 0 &&
+        end < params.samples) {
+      save_image(batch_filename(opts.output, end), get_image(state),
           params.exposure, params.filmic);
     }
+    sample = end;
   }
   end_progress(progress);
   save_image(opts.output, get_image(state), params.exposure, params.filmic);
