@@ -413,8 +413,10 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     } else {
       // Nor does it need the normal and textures of a surface without
       // emission that light can not pass.
-      if (last && blocks_without_emission(scene, accel.objects[isec.object]))
+      if (last && blocks_without_emission(scene, accel.objects[isec.object])) {
+        if (bounce == 0) path.hit = true;  // opaque: the hit counts, as below
         break;
+      }
       auto  point    = eval_surface(scene, accel, path.ray, isec);
       auto  outgoing = -path.ray.d;
       auto& material = point.material;

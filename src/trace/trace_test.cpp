@@ -161,6 +161,20 @@ TEST_CASE("trace: implicit_normal colours and alpha") {
   CHECK(pixel(image, 0, 0).w == 0);  // a miss is transparent
 }
 
+TEST_CASE("trace: a one-bounce path still covers what it hits") {
+  // The last bounce ends at a surface that emits nothing before shading it;
+  // the hit must still count for alpha (with the environment hidden).
+  auto scene        = furnace_scene();
+  auto params       = trace_params{};
+  params.resolution = 33;
+  params.samples    = 1;
+  params.bounces    = 1;
+  params.envhidden  = true;
+  auto image        = trace_image(scene, params);
+  CHECK(pixel(image, 16, 16).w == 1);
+  CHECK(pixel(image, 0, 0).w == 0);
+}
+
 TEST_CASE("trace: furnace per material stays at or below 1") {
   struct furnace_case {
     material_type type;
