@@ -474,17 +474,16 @@ struct grid_march {
   float length = 0;
   bool  inside = false;  // searching for the way out of the solid
   // Exit planes: the ray leaves voxels ..c (stepping +) or c.. (stepping -)
-  // of an axis at s = (c + ahead - plane_u0) * plane_inv. An axis the ray
-  // never crosses has plane_u0 = -inf and plane_inv = 1: its exits are +inf.
-  vec3i ahead     = {};  // 1 stepping +, else 0
+  // of an axis at s = (c + 1 - plane_u0) * plane_inv, or (c - plane_u0) *
+  // plane_inv. An axis the ray never crosses has plane_u0 = -inf and
+  // plane_inv = 1: its exits are +inf.
   vec3f plane_u0  = {};
   vec3f plane_inv = {};
 };
 
-// Parameter s where the ray leaves, on one axis, the voxels up to `bound`
-// (the last of them ahead of it).
-static float plane_exit(int bound, int ahead, float plane_u0, float inv) {
-  return ((float)(bound + ahead) - plane_u0) * inv;
+// Parameter s where the ray leaves the voxels [lo, hi] of one axis.
+static float plane_exit(int lo, int hi, int step, float plane_u0, float inv) {
+  return ((float)(step < 0 ? lo : hi + 1) - plane_u0) * inv;
 }
 
 // One coordinate of the voxel after leaving the cube [lo, hi]: past it on
@@ -530,12 +529,9 @@ static bool march_grid(
                   std::min(((c.y >> 1) + reach) * 2 + 1, last.y),
                   std::min(((c.z >> 1) + reach) * 2 + 1, last.z)};
     }
-    auto ex = plane_exit(
-        m.step.x < 0 ? lo.x : hi.x, m.ahead.x, m.plane_u0.x, m.plane_inv.x);
-    auto ey = plane_exit(
-        m.step.y < 0 ? lo.y : hi.y, m.ahead.y, m.plane_u0.y, m.plane_inv.y);
-    auto ez = plane_exit(
-        m.step.z < 0 ? lo.z : hi.z, m.ahead.z, m.plane_u0.z, m.plane_inv.z);
+    auto ex     = plane_exit(lo.x, hi.x, m.step.x, m.plane_u0.x, m.plane_inv.x);
+    auto ey     = plane_exit(lo.y, hi.y, m.step.y, m.plane_u0.y, m.plane_inv.y);
+    auto ez     = plane_exit(lo.z, hi.z, m.step.z, m.plane_u0.z, m.plane_inv.z);
     auto e      = std::min(ex, std::min(ey, ez));
     auto s_exit = std::max(s, std::min(e, m.length));
     if (skip == 0 && ((grid.voxel_masks[block] >> (voxel_bit(c) + side)) & 1)) {
@@ -611,7 +607,6 @@ bool intersect_grid(
     auto& d = at(m.du, a);
     if (!std::isfinite(1 / d)) d = 0;
     (&m.step.x)[a]     = d > 0 ? 1 : (d < 0 ? -1 : 0);
-    (&m.ahead.x)[a]    = d > 0 ? 1 : 0;
     at(m.plane_u0, a)  = d != 0 ? at(m.u0, a) : -flt_inf;
     at(m.plane_inv, a) = d != 0 ? 1 / d : 1;
   }

@@ -171,20 +171,26 @@ static bool next_token(text_reader& r, const char*& begin, const char*& end) {
   throw_io_error(filename + ":" + std::to_string(line), message);
 }
 
-// Parse a whole token as a number (from_chars does not take a leading '+').
+// The number that starts at `begin` (from_chars, which does not take a
+// leading '+'): where it ends, or nullptr when none does.
 template <typename T>
-static bool parse_number(const char* begin, const char* end, T& value) {
+static const char* number_end(const char* begin, const char* end, T& value) {
   if (begin < end && *begin == '+') begin++;
   auto [ptr, ec] = std::from_chars(begin, end, value);
-  return ec == std::errc{} && ptr == end;
+  return ec == std::errc{} ? ptr : nullptr;
+}
+
+// Parse a whole token as a number.
+template <typename T>
+static bool parse_number(const char* begin, const char* end, T& value) {
+  return number_end(begin, end, value) == end;
 }
 
 // The token at r.p as a number, read where it starts so that the millions
 // of samples are scanned once; on failure `end` marks the token's end.
 static bool read_number(text_reader& r, float& value, const char*& end) {
-  auto begin     = r.p < r.end && *r.p == '+' ? r.p + 1 : r.p;
-  auto [ptr, ec] = std::from_chars(begin, r.end, value);
-  if (ec == std::errc{} && ptr != begin && (ptr == r.end || is_space(*ptr))) {
+  auto ptr = number_end(r.p, r.end, value);
+  if (ptr && (ptr == r.end || is_space(*ptr))) {
     r.p = ptr;
     return true;
   }
