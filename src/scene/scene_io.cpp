@@ -223,7 +223,10 @@ static std::vector<std::string> sdf_parameter_keys(sdf_type type) {
     case sdf_type::op_smooth_subtraction: return {"operands", "blend"};
     case sdf_type::op_round: return {"operand", "radius"};
     case sdf_type::op_onion: return {"operand", "thickness"};
-    case sdf_type::op_transform: return {"operand"};
+    case sdf_type::op_transform:
+      return {"operand"};
+      IMPLICIT_SDF_WARP_CASES
+      IMPLICIT_SDF_MATH_CASES return {};
   }
   return {};
 }
@@ -384,6 +387,10 @@ static int parse_sdf_shape(const json_place& place, const json& js,
             "missing required key (a transform needs frame or "
             "world_from_local)");
       return parse_sdf_unary_operand(place, js, program, depth);
+      IMPLICIT_SDF_WARP_CASES
+      IMPLICIT_SDF_MATH_CASES
+      throw_json_error(
+          place, "type", "\"" + type_name + "\" is not supported yet");
   }
   return add_node(program, node);
 }

@@ -50,14 +50,67 @@ namespace implicit {
   X(op_onion, "onion")                             \
   X(op_transform, "transform")
 
+// X(id, JSON name) for each domain operator: the operand is evaluated at a
+// warped point q(p), as in Inigo Quilez's catalogue (sdf_program.h gives
+// each map and its node fields).
+#define IMPLICIT_SDF_WARPS(X) \
+  X(op_twist, "twist")        \
+  X(op_bend, "bend")          \
+  X(op_repeat, "repeat")      \
+  X(op_elongate, "elongate")  \
+  X(op_mirror, "mirror")
+
+// X(id, name, operands) for each arithmetic clause of closed-form
+// expressions; the names are the opcodes of fidget's `.vm` text format
+// (sdf_program.h gives each one's value, NaN rules included). Math nodes are
+// no JSON types: scenes write them as `expression` strings or `.vm` files.
+#define IMPLICIT_SDF_MATH(X)    \
+  X(math_const, "const", 0)     \
+  X(math_x, "var-x", 0)         \
+  X(math_y, "var-y", 0)         \
+  X(math_z, "var-z", 0)         \
+  X(math_neg, "neg", 1)         \
+  X(math_abs, "abs", 1)         \
+  X(math_square, "square", 1)   \
+  X(math_sqrt, "sqrt", 1)       \
+  X(math_exp, "exp", 1)         \
+  X(math_log, "ln", 1)          \
+  X(math_sin, "sin", 1)         \
+  X(math_cos, "cos", 1)         \
+  X(math_tan, "tan", 1)         \
+  X(math_asin, "asin", 1)       \
+  X(math_acos, "acos", 1)       \
+  X(math_atan, "atan", 1)       \
+  X(math_floor, "floor", 1)     \
+  X(math_ceil, "ceil", 1)       \
+  X(math_round, "round", 1)     \
+  X(math_not, "not", 1)         \
+  X(math_add, "add", 2)         \
+  X(math_sub, "sub", 2)         \
+  X(math_mul, "mul", 2)         \
+  X(math_div, "div", 2)         \
+  X(math_min, "min", 2)         \
+  X(math_max, "max", 2)         \
+  X(math_atan2, "atan2", 2)     \
+  X(math_mod, "mod", 2)         \
+  X(math_compare, "compare", 2) \
+  X(math_and, "and", 2)         \
+  X(math_or, "or", 2)
+
 // `case sdf_type::id:` for each primitive, for switches that treat them
 // alike.
 #define IMPLICIT_SDF_PRIMITIVE_CASE(id, name) case sdf_type::id:
 #define IMPLICIT_SDF_PRIMITIVE_CASES \
   IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_PRIMITIVE_CASE)
-// The same for each operator.
-#define IMPLICIT_SDF_OPERATOR_CASES \
+// The same for each CSG operator, each domain operator and each math clause.
+#define IMPLICIT_SDF_CSG_CASES \
   IMPLICIT_SDF_OPERATORS(IMPLICIT_SDF_PRIMITIVE_CASE)
+#define IMPLICIT_SDF_WARP_CASES IMPLICIT_SDF_WARPS(IMPLICIT_SDF_PRIMITIVE_CASE)
+#define IMPLICIT_SDF_MATH_CASE(id, name, operands) case sdf_type::id:
+#define IMPLICIT_SDF_MATH_CASES IMPLICIT_SDF_MATH(IMPLICIT_SDF_MATH_CASE)
+// Every node that is not a primitive.
+#define IMPLICIT_SDF_OPERATOR_CASES \
+  IMPLICIT_SDF_CSG_CASES IMPLICIT_SDF_WARP_CASES IMPLICIT_SDF_MATH_CASES
 
 // -----------------------------------------------------------------------------
 // PARAMETERS

@@ -99,7 +99,13 @@ static int operand_count(sdf_type type) {
     case sdf_type::op_subtraction:
     case sdf_type::op_smooth_union:
     case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction: return 2;
+    case sdf_type::op_smooth_subtraction:
+      return 2;
+      IMPLICIT_SDF_WARP_CASES return 1;
+#define IMPLICIT_SDF_MATH_OPERANDS(id, name, operands) \
+  case sdf_type::id: return operands;
+      IMPLICIT_SDF_MATH(IMPLICIT_SDF_MATH_OPERANDS)
+#undef IMPLICIT_SDF_MATH_OPERANDS
   }
   return 0;
 }
@@ -182,6 +188,10 @@ sdf_tape make_sdf_tape(const sdf_program& program) {
   auto tape = sdf_tape{};
   if (program.nodes.empty()) return tape;
   check_tree(program);
+  for (auto& node : program.nodes)
+    if (is_warp(node.type) || is_math(node.type))
+      throw io_error("sdf program: " + sdf_type_names[(int)node.type] +
+                     " is not supported yet");
   auto  n     = (int)program.nodes.size();
   auto& nodes = program.nodes;
   // Spaces, top-down (users come after their operands, so a reverse pass
@@ -290,7 +300,13 @@ float eval_sdf(const sdf_tape& pool, const sdf_instr* begin,
       case sdf_type::op_onion:
         stack[top - 1] = std::abs(stack[top - 1]) - node.thickness;
         break;
-      case sdf_type::op_transform: stack[top - 1] *= instr.scale; break;
+      case sdf_type::op_transform:
+        stack[top - 1] *= instr.scale;
+        break;
+        // Refused by make_sdf_tape() until the tape evaluates them.
+        IMPLICIT_SDF_WARP_CASES
+        IMPLICIT_SDF_MATH_CASES assert(false && "unsupported node");
+        break;
     }
   }
   assert(top == 1);
@@ -454,6 +470,11 @@ bbox3f sdf_bounds(const sdf_program& program) {
         box = transform_bbox(inverse(program.frames[node.frame]), left());
         break;
         IMPLICIT_SDF_PRIMITIVE_CASES box = primitive_bounds(node);
+        break;
+        // Not yet bounded: infinite.
+        IMPLICIT_SDF_WARP_CASES
+        IMPLICIT_SDF_MATH_CASES box = {
+            {-flt_inf, -flt_inf, -flt_inf}, {flt_inf, flt_inf, flt_inf}};
         break;
     }
   }

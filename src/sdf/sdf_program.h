@@ -21,47 +21,103 @@ namespace implicit {
 // -----------------------------------------------------------------------------
 
 // Node types: primitives first (the rows of sdf_primitive_table.h), then the
-// operators. Names in sdf_type_names, used by JSON, CLI and UI.
+// CSG operators, the domain operators and the math clauses. Names in
+// sdf_type_names (JSON and UI names; math clauses have their `.vm` opcode,
+// so "round" names both the CSG rounding and, later, the math clause: look
+// math names up in sdf_math_names).
 // clang-format off
 #define IMPLICIT_SDF_ENUM(id, name) id,
+#define IMPLICIT_SDF_MATH_ENUM(id, name, operands) id,
 enum class sdf_type {
   IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_ENUM)
   IMPLICIT_SDF_OPERATORS(IMPLICIT_SDF_ENUM)
+  IMPLICIT_SDF_WARPS(IMPLICIT_SDF_ENUM)
+  IMPLICIT_SDF_MATH(IMPLICIT_SDF_MATH_ENUM)
 };
+#undef IMPLICIT_SDF_MATH_ENUM
 #undef IMPLICIT_SDF_ENUM
 
 #define IMPLICIT_SDF_NAME(id, name) name,
+#define IMPLICIT_SDF_MATH_NAME(id, name, operands) name,
 inline const std::vector<std::string> sdf_type_names = {
   IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_NAME)
   IMPLICIT_SDF_OPERATORS(IMPLICIT_SDF_NAME)
+  IMPLICIT_SDF_WARPS(IMPLICIT_SDF_NAME)
+  IMPLICIT_SDF_MATH(IMPLICIT_SDF_MATH_NAME)
 };
+// The `.vm` opcodes of the math clauses, in enum order from math_const.
+inline const std::vector<std::string> sdf_math_names = {
+  IMPLICIT_SDF_MATH(IMPLICIT_SDF_MATH_NAME)
+};
+#undef IMPLICIT_SDF_MATH_NAME
 #undef IMPLICIT_SDF_NAME
 // clang-format on
 
-// True for leaves, false for operators.
+// True for leaves of the seed's kind (shapes), false for the rest.
 inline bool is_primitive(sdf_type type) { return type < sdf_type::op_union; }
+// True for the domain operators (twist .. mirror).
+inline bool is_warp(sdf_type type) {
+  return type >= sdf_type::op_twist && type <= sdf_type::op_mirror;
+}
+// True for the math clauses (const .. or).
+inline bool is_math(sdf_type type) { return type >= sdf_type::math_const; }
 
 // One node. Parameters are named by meaning; each type reads only its own:
 // primitives those of their sdf_params_<id> (sdf_primitives.h); smooth ops
 // blend; round radius (added thickness); onion thickness (half shell);
 // transform frame (child_from_parent) and operand left. Subtraction removes
 // `right` from `left`.
+//
+// Domain operators evaluate their operand `left` at q(p), p the point in the
+// operator's space (after Inigo Quilez, iquilezles.org/articles/
+// distfunctions):
+//   twist     rotation about y by value * p.y:
+//             q = (c p.x - s p.z, p.y, s p.x + c p.z), c, s = cos, sin of it
+//   bend      rotation about z by value * p.x:
+//             q = (c p.x - s p.y, s p.x + c p.y, p.z)
+//   repeat    per axis a with size[a] > 0: q[a] = p[a] - size[a] * n, with
+//             n = round(p[a] / size[a]) clamped to [-count[a], count[a]]
+//             when count[a] >= 0 (limited repetition), unclamped when
+//             count[a] < 0; axes with size[a] == 0 are not repeated
+//   elongate  q = p - clamp(p, -size, size)
+//   mirror    q[a] = |p[a]| for each axis a whose bit is set in `axes`
+// Displacement is no node of its own: math_add of the operand and the
+// displacement (both in the same space).
+//
+// Math clauses (operands `left`, then `right`; NaN follows IEEE unless said):
+//   const value; var-x, var-y, var-z the point's coordinates in the node's
+//   space; neg abs square sqrt exp ln sin cos tan asin acos atan floor ceil of
+//   left; round of left to the nearest integer, halves away from zero
+//   (std::round); not: 1 if left == 0 else 0; add sub mul div min max of
+//   left and right (min and max give NaN if either is NaN); atan2(left,
+//   right) = atan2(y = left, x = right); mod: the remainder of left / right
+//   in [0, |right|) (fidget's rem_euclid); compare: -1, 0 or 1 as left <, ==,
+//   > right, NaN if either is NaN; and: left if left == 0 else right; or:
+//   left if left != 0 else right.
+// A NaN value counts as outside (positive) wherever a sign is taken; an
+// interval over a region where the value may be NaN is [-inf, +inf].
 struct sdf_node {
   sdf_type type      = sdf_type::sphere;
-  vec3f    size      = {0, 0, 0};
+  vec3f    size      = {0, 0, 0};  // also: repeat period, elongate extent
   float    radius    = 0;
   float    radius2   = 0;
   float    height    = 0;
   float    thickness = 0;
   float    blend     = 0;
+  float    value     = 0;             // const; twist, bend: radians per unit
+  vec3i    count     = {-1, -1, -1};  // repeat: copies each side (< 0: all)
+  int      axes      = 0;             // mirror: bit 0 x, bit 1 y, bit 2 z
   int      left      = invalidid;
   int      right     = invalidid;
   int      frame     = invalidid;  // index in sdf_program::frames
   int      origin    = invalidid;  // pruned copies: the node it came from
 };
 
-// A flat expression tree. Operands come before the nodes that use them; the
-// root is the last node. `frames` hold child_from_parent maps of transforms
+// A flat expression graph. Operands come before the nodes that use them; the
+// root is the last node. CSG models are trees; math clauses may share an
+// operand between several users (a `.vm` file is such a graph), always within
+// one space (no transform or domain operator lies between a shared node and
+// only some of its users). `frames` hold child_from_parent maps of transforms
 // and `frame_scales` the matching distance factors (1 / largest stretch).
 struct sdf_program {
   std::vector<sdf_node> nodes        = {};

@@ -189,6 +189,12 @@ sdf_program prune_sdf(
         hi[i]  = hi[l] * s;
         break;
       }
+        // No tape evaluates these yet (make_sdf_tape() refuses them).
+        IMPLICIT_SDF_WARP_CASES
+        IMPLICIT_SDF_MATH_CASES
+        lo[i] = -flt_inf;
+        hi[i] = flt_inf;
+        break;
     }
   }
 
@@ -296,6 +302,11 @@ sdf_program prune_sdf(
         }
         break;
       }
+        IMPLICIT_SDF_WARP_CASES
+        IMPLICIT_SDF_MATH_CASES
+        if (node.left >= 0) keep(node.left, flt_inf, -flt_inf);
+        if (node.right >= 0) keep(node.right, flt_inf, -flt_inf);
+        break;
     }
   }
 
