@@ -121,7 +121,7 @@ int main(int argc, char** argv) {
       auto path         = camera;
       path.shader       = shader_type::implicit;
       auto build_start  = cpu_seconds();
-      auto accel        = make_accel(scene, accel_type::bvh, camera.march);
+      auto accel        = make_accel(scene, accel_type::bvh);
       auto build        = cpu_seconds() - build_start;
       auto rays         = run(scene, accel, camera);
       auto paths        = run(scene, accel, path);
@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
       if (count == counts.front()) first = per_ray;
       auto reference = std::string{"-"}, ratio = std::string{"-"};
       if (count == reference_count) {
-        auto slow = make_accel(scene, accel_type::none, camera.march);
+        auto slow = make_accel(scene, accel_type::none);
         auto ref  = run(scene, slow, camera);
         auto us   = ref.seconds / ref.samples * 1e6;
         char buffer[64];

@@ -148,14 +148,11 @@ std::shared_ptr<py_scene> parse_scene_text(
 }
 
 // The context to render `params` with: the scene's own, or, when the
-// options change what the context builds (the accelerator and the march
-// cap, the only accel settings Python sets), one made from a copy of the
-// scene.
+// options change what the context builds (the accelerator, the only build
+// setting Python sets), one made from a copy of the scene.
 std::shared_ptr<const render_context> context_for(
     const py_scene& scene, const trace_params& params) {
-  if (params.accel == scene.built.accel &&
-      params.march.max_iterations == scene.built.march.max_iterations)
-    return scene.context;
+  if (params.accel == scene.built.accel) return scene.context;
   py::gil_scoped_release release;
   auto                   copy = scene.context->scene;
   return make_render_context(std::move(copy), params);

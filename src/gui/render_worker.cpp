@@ -25,12 +25,11 @@ static bool is_cancelled(void* user) {
 }
 
 // One sample per pixel, abandoned between tiles when a newer job arrives.
-bool render_step_cancellable(const render_context& context,
-    const accel_data& accel, render_state& state,
+bool render_step_cancellable(const render_context& context, render_state& state,
     const std::atomic<int64_t>& latest, int64_t job) {
   auto check     = cancel_check{&latest, job};
   auto callbacks = render_callbacks{nullptr, is_cancelled, &check};
-  return render_step(context, accel, state, 1, callbacks);
+  return render_step(context, state, 1, callbacks);
 }
 
 // Resolution / pratio, one sample.
@@ -61,42 +60,22 @@ static double elapsed(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
-// The accel for a job: the context's, or the worker's own for another
-// iteration cap (rebuilt only when the cap changes).
-static const accel_data& job_accel(
-    render_worker& worker, const trace_params& params) {
-  auto& context = *worker.context;
-  auto  cap     = params.march.max_iterations;
-  if (cap == context.accel.march.max_iterations) return context.accel;
-  if (!worker.capped || worker.capped->march.max_iterations != cap) {
-    // Only the cap differs: the others set hit_min and stay as they were.
-    auto march           = context.accel.march;
-    march.max_iterations = cap;
-    worker.capped        = std::make_unique<accel_data>(
-        make_accel(context.scene, context.accel.type, march));
-  }
-  return *worker.capped;
-}
-
 // Preview, then passes until all samples are done or a newer job arrives.
 static void render_job_passes(
     render_worker& worker, const render_job& job, int64_t id) {
   auto& context = *worker.context;
   auto& params  = job.params;
-  auto& accel   = job_accel(worker, params);
   if (params.pratio > 1) {
     auto preview = preview_params(params);
     auto state   = make_render_state(context, preview, job.camera);
     auto start   = std::chrono::steady_clock::now();
-    if (!render_step_cancellable(context, accel, state, worker.latest, id))
-      return;
+    if (!render_step_cancellable(context, state, worker.latest, id)) return;
     publish(worker, id, get_image(state), state.samples, true, elapsed(start));
   }
   auto state = make_render_state(context, params, job.camera);
   while (state.samples < params.samples) {
     auto start = std::chrono::steady_clock::now();
-    if (!render_step_cancellable(context, accel, state, worker.latest, id))
-      return;
+    if (!render_step_cancellable(context, state, worker.latest, id)) return;
     publish(worker, id, get_image(state), state.samples, false, elapsed(start));
   }
 }

@@ -29,8 +29,7 @@ namespace implicit {
 // random streams, so the same image), but stop between tiles once `latest`
 // no longer equals `job`. Returns false, leaving the state unusable, when it
 // stopped early.
-bool render_step_cancellable(const render_context& context,
-    const accel_data& accel, render_state& state,
+bool render_step_cancellable(const render_context& context, render_state& state,
     const std::atomic<int64_t>& latest, int64_t job);
 
 // The parameters of the preview: the resolution divided by pratio (at least
@@ -58,18 +57,16 @@ struct render_update {
 };
 
 // The worker and what it shares with the interface thread. The thread only
-// reads the context given to start_worker(). A job whose iteration cap
-// (--stmaxiter) differs from the context's renders with the worker's own
-// accel, built for that cap over the same scene (objects in the same order,
-// so the context's lights fit it).
+// reads the context given to start_worker(); every job renders with it,
+// whatever its parameters (the iteration cap too: march settings are passed
+// when tracing, so nothing is rebuilt).
 struct render_worker {
   render_worker()                                = default;
   render_worker(const render_worker&)            = delete;
   render_worker& operator=(const render_worker&) = delete;
   ~render_worker();  // stops and joins the thread
 
-  const render_context*       context = nullptr;
-  std::unique_ptr<accel_data> capped  = {};  // used by the worker thread only
+  const render_context* context = nullptr;
 
   std::thread             thread = {};
   std::mutex              mutex  = {};

@@ -28,10 +28,10 @@ std::unique_ptr<const render_context> load_example(trace_params& params) {
 }
 
 // What `ypathtrace` renders for these parameters and this camera.
-image_data render_cli(const render_context& context, const accel_data& accel,
-    const trace_params& params, const camera_data& camera) {
+image_data render_cli(const render_context& context, const trace_params& params,
+    const camera_data& camera) {
   auto state = make_render_state(context, params, camera);
-  CHECK(render_step(context, accel, state, params.samples, {}));
+  CHECK(render_step(context, state, params.samples, {}));
   return get_image(state);
 }
 
@@ -74,14 +74,13 @@ render_update wait_finished(render_worker& worker, int64_t job, int samples,
 TEST_CASE("render_worker: a cancellable pass is a render_step pass") {
   auto params       = trace_params{};
   params.resolution = 40;
-  auto  context     = load_example(params);
-  auto& accel       = context->accel;
-  auto  reference   = make_render_state(*context, params);
-  auto  state       = make_render_state(*context, params);
-  auto  latest      = std::atomic<int64_t>{7};
+  auto context      = load_example(params);
+  auto reference    = make_render_state(*context, params);
+  auto state        = make_render_state(*context, params);
+  auto latest       = std::atomic<int64_t>{7};
   for (auto pass = 0; pass < 2; pass++) {
     CHECK(render_step(*context, reference));
-    CHECK(render_step_cancellable(*context, accel, state, latest, 7));
+    CHECK(render_step_cancellable(*context, state, latest, 7));
   }
   CHECK(state.samples == 2);
   CHECK(same_pixels(get_image(state), get_image(reference)));
@@ -90,7 +89,7 @@ TEST_CASE("render_worker: a cancellable pass is a render_step pass") {
   // A newer job: no tile is traced and the sample is not counted.
   auto fresh = make_render_state(*context, params);
   latest     = 8;
-  CHECK_FALSE(render_step_cancellable(*context, accel, fresh, latest, 7));
+  CHECK_FALSE(render_step_cancellable(*context, fresh, latest, 7));
   CHECK(fresh.samples == 0);
   auto traced = 0;
   for (auto& p : fresh.accumulated) traced += (p.x != 0 || p.w != 0);
@@ -120,7 +119,7 @@ TEST_CASE(
   params.pratio     = 4;
   auto context      = load_example(params);
   auto camera       = context->scene.cameras[params.camera];
-  auto expected     = render_cli(*context, context->accel, params, camera);
+  auto expected     = render_cli(*context, params, camera);
 
   auto worker = render_worker{};
   start_worker(worker, *context);
@@ -190,17 +189,12 @@ TEST_CASE("render_worker: a new job cancels the running one") {
   CHECK(backwards == 0);
 
   // The same image rendered directly with the moved camera and the
-  // iteration cap, and different from the unmoved camera's; the context's
-  // accel and cameras are as they were.
-  CHECK(context->accel.march.max_iterations == params.march.max_iterations);
+  // iteration cap, and different from the unmoved camera's and from the
+  // uncapped one's; the context's cameras are as they were.
   CHECK(context->scene.cameras[params.camera].frame.o == camera.frame.o);
-  auto march           = context->accel.march;
-  march.max_iterations = 3;
-  auto capped          = make_accel(context->scene, context->accel.type, march);
-  auto expected        = render_cli(*context, capped, fast, moved);
-  CHECK(same_pixels(last.image, expected));
-  CHECK_FALSE(
-      same_pixels(last.image, render_cli(*context, capped, fast, camera)));
-  auto uncapped = render_cli(*context, context->accel, fast, moved);
-  CHECK_FALSE(same_pixels(last.image, uncapped));
+  CHECK(same_pixels(last.image, render_cli(*context, fast, moved)));
+  CHECK_FALSE(same_pixels(last.image, render_cli(*context, fast, camera)));
+  auto uncapped                 = fast;
+  uncapped.march.max_iterations = params.march.max_iterations;
+  CHECK_FALSE(same_pixels(last.image, render_cli(*context, uncapped, moved)));
 }

@@ -32,11 +32,20 @@ static bbox3f field_box(const trace_object& object) {
   return expand(box, 2 * object.local_padding + 1e-3f * length(size(box)));
 }
 
+// Padding of object boxes against rounding, so that surfaces lying on a box
+// face (boxes, thin boxes) are never clipped: a fraction of the scene size
+// (the default march_params::scene_epsilon) plus a floor.
+inline constexpr float box_padding_relative = 1e-6f;
+inline constexpr float box_padding_min      = 1e-8f;
+
 accel_data make_accel(
-    const scene_data& scene, accel_type type, const march_params& march) {
-  auto accel  = accel_data{};
-  accel.type  = type;
-  accel.march = march;
+    const scene_data& scene, accel_type type, const accel_params& params) {
+  if (params.linear_max < 0 || params.linear_max > linear_max_objects)
+    throw io_error(
+        "accel parameter linear_max: " + std::to_string(params.linear_max) +
+        " is out of range [0, " + std::to_string(linear_max_objects) + "]");
+  auto accel = accel_data{};
+  accel.type = type;
   // Programs of the function objects, made into fields once the padding is
   // known (at the end).
   auto programs = std::vector<sdf_program>{};
@@ -106,20 +115,20 @@ accel_data make_accel(
   }
   accel.size =
       is_empty(accel.bounds) ? 1 : std::max(length(size(accel.bounds)), 1e-6f);
-  accel.hit_min = accel.march.scene_epsilon * accel.size;
+  accel.padding = box_padding_relative * accel.size + box_padding_min;
   // Local boxes are padded by the world padding mapped to local units (the
   // largest stretch of local_from_world).
-  auto padding = object_box_padding(accel);
+  auto padding = accel.padding;
   for (auto& object : accel.objects)
     object.local_padding = padding * max_stretch(object.local_from_world);
   // Fields: pruned over the object's box (bvh), or the whole tree (none).
   for (auto k = 0; k < (int)programs.size(); k++) {
-    auto& object     = accel.objects[k];
-    auto  box        = type == accel_type::bvh ? field_box(object) : bbox3f{};
-    auto  params     = sdf_field_params{};
-    params.max_bytes = accel.march.prune_bytes;
-    object.field     = std::make_shared<const sdf_field>(
-        make_sdf_field(programs[k], box, params));
+    auto& object    = accel.objects[k];
+    auto  box       = type == accel_type::bvh ? field_box(object) : bbox3f{};
+    auto  field     = sdf_field_params{};
+    field.max_bytes = params.prune_bytes;
+    object.field    = std::make_shared<const sdf_field>(
+        make_sdf_field(programs[k], box, field));
   }
   // Objects with finite boxes go into the BVH, the others beside it; empty
   // boxes (an intersection of disjoint shapes) can never be hit.
@@ -148,8 +157,7 @@ accel_data make_accel(
       accel.bounded_max[a][k] = at(box.max, a);
     }
   }
-  auto linear_max = std::min(accel.march.linear_max, linear_max_objects);
-  if (type == accel_type::bvh && (int)accel.bounded.size() > linear_max)
+  if (type == accel_type::bvh && (int)accel.bounded.size() > params.linear_max)
     accel.bvh = make_embree_bvh(accel);
   return accel;
 }
@@ -199,20 +207,22 @@ vec3f eval_object_normal(
 // March a ray in an object's space with the local distance `eval`, chosen
 // once per ray so that the loop inlines it.
 template <typename Eval>
-static march_result march_local(const accel_data& accel, const Eval& eval,
-    const ray3f& local, float scale, float t0, float t1, float cutoff) {
+static march_result march_local(const accel_data& accel,
+    const march_params& params, const Eval& eval, const ray3f& local,
+    float scale, float t0, float t1, float cutoff) {
   auto distance = [&](float t) { return eval(ray_point(local, t)) * scale; };
-  return sphere_trace(distance, t0, t1, cutoff, accel.march, accel.hit_min);
+  return sphere_trace(
+      distance, t0, t1, cutoff, params, min_hit_epsilon(accel, params));
 }
 
 // March one object: single primitives get their own loop (no switch per
 // step), CSG programs, grids and user functions the general evaluation.
 static march_result march_object(const accel_data& accel,
-    const trace_object& object, const ray3f& local, float t0, float t1,
-    float cutoff) {
+    const march_params& params, const trace_object& object, const ray3f& local,
+    float t0, float t1, float cutoff) {
   auto scale = object.distance_scale;
   auto march = [&](const auto& eval) {
-    return march_local(accel, eval, local, scale, t0, t1, cutoff);
+    return march_local(accel, params, eval, local, scale, t0, t1, cutoff);
   };
   switch (object.kind) {
     case object_kind::function: {
@@ -249,8 +259,8 @@ static march_result march_object(const accel_data& accel,
   return {};
 }
 
-scene_intersection intersect_object(
-    const accel_data& accel, int index, const ray3f& ray, float cutoff) {
+scene_intersection intersect_object(const accel_data& accel,
+    const march_params& march, int index, const ray3f& ray, float cutoff) {
   auto& object = accel.objects[index];
   auto  isec   = scene_intersection{};
   // In the object's space t keeps its meaning (the direction is not
@@ -265,7 +275,7 @@ scene_intersection intersect_object(
       isec.hit      = true;
       isec.object   = index;
       isec.distance = t;
-      isec.epsilon  = hit_epsilon(accel, t);
+      isec.epsilon  = hit_epsilon(accel, march, t);
     }
     return isec;
   }
@@ -280,24 +290,24 @@ scene_intersection intersect_object(
       isec.hit      = true;
       isec.object   = index;
       isec.distance = t;
-      isec.epsilon  = hit_epsilon(accel, t);
+      isec.epsilon  = hit_epsilon(accel, march, t);
     }
     return isec;
   }
-  auto march       = march_object(accel, object, local, t0, t1, cutoff);
-  isec.evaluations = march.evaluations;
-  if (march.hit) {
+  auto result      = march_object(accel, march, object, local, t0, t1, cutoff);
+  isec.evaluations = result.evaluations;
+  if (result.hit) {
     isec.hit      = true;
     isec.object   = index;
-    isec.distance = march.distance;
-    isec.epsilon  = march.epsilon;
+    isec.distance = result.distance;
+    isec.epsilon  = result.epsilon;
   }
   return isec;
 }
 
 // The seed's loop: the minimum of all objects' distances at every step.
 static scene_intersection intersect_reference(
-    const accel_data& accel, const ray3f& ray) {
+    const accel_data& accel, const march_params& march, const ray3f& ray) {
   auto closest  = invalidid;
   auto distance = [&](float t) {
     auto p    = ray_point(ray, t);
@@ -314,21 +324,20 @@ static scene_intersection intersect_reference(
   // Stop where the ray leaves every object's box (the seed marched on to
   // the iteration cap).
   auto t0 = 0.0f, t1 = 0.0f;
-  if (!intersect_bbox(ray, expand(accel.extent, accel.hit_min), t0, t1))
-    return {};
+  auto hit_min = min_hit_epsilon(accel, march);
+  if (!intersect_bbox(ray, expand(accel.extent, hit_min), t0, t1)) return {};
   // The reference keeps Keinert's fixed over-relaxation.
-  auto params   = accel.march;
+  auto params   = march;
   params.planar = 0;
-  auto march =
-      sphere_trace(distance, ray.tmin, t1, flt_max, params, accel.hit_min);
-  auto isec        = scene_intersection{};
-  isec.evaluations = march.evaluations * (int)accel.objects.size();
-  if (march.hit) {
-    distance(march.distance);  // sets `closest` at the hit point
+  auto result = sphere_trace(distance, ray.tmin, t1, flt_max, params, hit_min);
+  auto isec   = scene_intersection{};
+  isec.evaluations = result.evaluations * (int)accel.objects.size();
+  if (result.hit) {
+    distance(result.distance);  // sets `closest` at the hit point
     isec.hit      = true;
     isec.object   = closest;
-    isec.distance = march.distance;
-    isec.epsilon  = march.epsilon;
+    isec.distance = result.distance;
+    isec.epsilon  = result.epsilon;
   }
   return isec;
 }
@@ -385,7 +394,7 @@ static void enter_boxes(
 // nearest first, which is what the BVH does, without its per-ray cost. The
 // result is the same: each object's march ignores the visiting order.
 static scene_intersection intersect_linear(
-    const accel_data& accel, const ray3f& ray) {
+    const accel_data& accel, const march_params& march, const ray3f& ray) {
   float boxes[linear_max_objects];
   enter_boxes(accel, ray, boxes);
   float entries[linear_max_objects];
@@ -406,7 +415,7 @@ static scene_intersection intersect_linear(
   auto best        = scene_intersection{};
   auto evaluations = 0;
   for (auto k = 0; k < count && entries[k] <= best.distance; k++) {
-    auto isec = intersect_object(accel, indices[k], ray, best.distance);
+    auto isec = intersect_object(accel, march, indices[k], ray, best.distance);
     evaluations += isec.evaluations;
     if (is_closer(isec, best)) best = isec;
   }
@@ -415,23 +424,26 @@ static scene_intersection intersect_linear(
 }
 
 // Whether any of few bounded objects is hit.
-static bool intersect_linear_any(const accel_data& accel, const ray3f& ray) {
+static bool intersect_linear_any(
+    const accel_data& accel, const march_params& march, const ray3f& ray) {
   float entries[linear_max_objects];
   enter_boxes(accel, ray, entries);
   for (auto k = 0; k < (int)accel.bounded.size(); k++) {
     if (entries[k] == flt_inf) continue;
-    if (intersect_object(accel, accel.bounded[k], ray, ray.tmax).hit)
+    if (intersect_object(accel, march, accel.bounded[k], ray, ray.tmax).hit)
       return true;
   }
   return false;
 }
 
-scene_intersection intersect_scene(const accel_data& accel, const ray3f& ray) {
-  if (accel.type == accel_type::none) return intersect_reference(accel, ray);
-  auto best = uses_bvh(accel) ? intersect_embree(accel, ray)
-                              : intersect_linear(accel, ray);
+scene_intersection intersect_scene(
+    const accel_data& accel, const march_params& march, const ray3f& ray) {
+  if (accel.type == accel_type::none)
+    return intersect_reference(accel, march, ray);
+  auto best = uses_bvh(accel) ? intersect_embree(accel, march, ray)
+                              : intersect_linear(accel, march, ray);
   for (auto index : accel.unbounded) {
-    auto isec = intersect_object(accel, index, ray, best.distance);
+    auto isec = intersect_object(accel, march, index, ray, best.distance);
     best.evaluations += isec.evaluations;
     if (is_closer(isec, best)) {
       isec.evaluations = best.evaluations;
@@ -441,13 +453,14 @@ scene_intersection intersect_scene(const accel_data& accel, const ray3f& ray) {
   return best;
 }
 
-bool intersect_scene_any(const accel_data& accel, const ray3f& ray) {
+bool intersect_scene_any(
+    const accel_data& accel, const march_params& march, const ray3f& ray) {
   if (accel.type == accel_type::none)
-    return intersect_reference(accel, ray).hit;
+    return intersect_reference(accel, march, ray).hit;
   for (auto index : accel.unbounded)
-    if (intersect_object(accel, index, ray, ray.tmax).hit) return true;
-  return uses_bvh(accel) ? intersect_embree_any(accel, ray)
-                         : intersect_linear_any(accel, ray);
+    if (intersect_object(accel, march, index, ray, ray.tmax).hit) return true;
+  return uses_bvh(accel) ? intersect_embree_any(accel, march, ray)
+                         : intersect_linear_any(accel, march, ray);
 }
 
 }  // namespace implicit

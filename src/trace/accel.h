@@ -41,9 +41,12 @@ namespace implicit {
 enum class accel_type { bvh, none };
 inline const std::vector<std::string> accel_type_names = {"bvh", "none"};
 
-// Sphere-tracing parameters. The hit threshold at distance t along a ray is
+// Sphere-tracing parameters, passed when tracing: an accel holds geometry
+// only, so a render with other values (the viewer's iteration cap) rebuilds
+// nothing. The hit threshold at distance t along a ray is
 // max(hit_min, hit_relative * t): sub-pixel for camera rays, and scaled to the
-// scene (hit_min = scene_epsilon * scene size) near the start of bounces.
+// scene (hit_min = scene_epsilon * scene size, see min_hit_epsilon()) near the
+// start of bounces.
 struct march_params {
   int   max_iterations = 450;    // the seed's default (--stmaxiter)
   float hit_relative   = 1e-5f;  // fraction of the distance travelled
@@ -54,10 +57,14 @@ struct march_params {
                                  // keeps Keinert's steps
   float fallback = 2;            // closest approach within this many
                                  // thresholds counts as a hit
-  int linear_max = 8;            // up to this many bounded objects are
-                                 // tested in a loop, not through the BVH
-  size_t prune_bytes = 0;        // budget of each object's pruned steps
-                                 // (0: sdf_field_params' default)
+};
+
+// What make_accel() builds: fixed for the accel's lifetime.
+struct accel_params {
+  int linear_max = 8;      // up to this many bounded objects are tested in
+                           // a loop, not through the BVH
+  size_t prune_bytes = 0;  // budget of each object's pruned steps
+                           // (0: sdf_field_params' default)
 };
 
 // -----------------------------------------------------------------------------
@@ -125,25 +132,25 @@ struct accel_data {
   bbox3f                    bounds  = {};  // finite bounds of all objects
   bbox3f                    extent  = {};  // all bounds, maybe infinite
   float                     size    = 1;   // diagonal of bounds
-  float                     hit_min = 1e-6f;
-  march_params              march   = {};
+  float                     padding = 0;   // of world boxes, see make_accel
   std::vector<int>          bounded = {};  // BVH primitive -> object
   // Their padded world boxes by axis (structure of arrays, the count padded
   // to a multiple of 4): without a BVH the loop over them tests four at a
   // time.
   std::array<std::vector<float>, 3> bounded_min = {}, bounded_max = {};
   std::vector<int> unbounded = {};  // objects tested beside the BVH
-  embree_bvh       bvh       = {};  // see march_params::linear_max
+  embree_bvh       bvh       = {};  // see accel_params::linear_max
 };
 
 // Most bounded objects that intersect_scene() may test in a loop, sorted by
 // box entry, rather than through the BVH (whose per-ray cost is higher for
-// few objects); march_params::linear_max picks the number up to this.
+// few objects); accel_params::linear_max picks the number up to this.
 inline constexpr int linear_max_objects = 16;  // a multiple of 4
 
 // Build the objects of a scene. The result keeps no reference to the scene.
+// Throws io_error for parameters out of range.
 accel_data make_accel(
-    const scene_data& scene, accel_type type, const march_params& march);
+    const scene_data& scene, accel_type type, const accel_params& params = {});
 
 // -----------------------------------------------------------------------------
 // INTERSECTION
@@ -159,17 +166,20 @@ struct scene_intersection {
 
 // Closest hit along a ray with unit direction in [ray.tmin, ray.tmax].
 // Thread-safe; allocates nothing.
-scene_intersection intersect_scene(const accel_data& accel, const ray3f& ray);
+scene_intersection intersect_scene(
+    const accel_data& accel, const march_params& march, const ray3f& ray);
 
 // Whether anything is hit in [ray.tmin, ray.tmax] (shadow rays): stops at the
-// first hit found. Always equal to intersect_scene(accel, ray).hit.
-bool intersect_scene_any(const accel_data& accel, const ray3f& ray);
+// first hit found. Always equal to intersect_scene(accel, march, ray).hit.
+bool intersect_scene_any(
+    const accel_data& accel, const march_params& march, const ray3f& ray);
 
 // Closest hit with one object only, marching its whole box interval. The
 // march may give up, reporting no hit, once it is sure that its hit (if any)
 // lies beyond `cutoff`; hits at or before `cutoff` are always the same.
-scene_intersection intersect_object(const accel_data& accel, int object,
-    const ray3f& ray, float cutoff = flt_max);
+scene_intersection intersect_object(const accel_data& accel,
+    const march_params& march, int object, const ray3f& ray,
+    float cutoff = flt_max);
 
 // Signed distance bound of one object at a world point (world units).
 float eval_object_distance(const trace_object& object, vec3f p_world);
@@ -178,9 +188,16 @@ float eval_object_distance(const trace_object& object, vec3f p_world);
 // `step` is the finite-difference step in world units when one is needed.
 vec3f eval_object_normal(const trace_object& object, vec3f p_world, float step);
 
+// Smallest hit threshold (near the start of rays), in world units.
+inline float min_hit_epsilon(
+    const accel_data& accel, const march_params& march) {
+  return march.scene_epsilon * accel.size;
+}
+
 // Hit threshold at distance t along a ray.
-inline float hit_epsilon(const accel_data& accel, float t) {
-  return std::max(accel.hit_min, accel.march.hit_relative * t);
+inline float hit_epsilon(
+    const accel_data& accel, const march_params& march, float t) {
+  return std::max(min_hit_epsilon(accel, march), march.hit_relative * t);
 }
 
 }  // namespace implicit

@@ -76,7 +76,7 @@ embree_bvh make_embree_bvh(const accel_data& accel) {
   // Embree's box tests are in float: widen each box a little more than the
   // interval that intersect_object() clips to, relative to its coordinates.
   auto data = embree_build_data{};
-  auto pad  = object_box_padding(accel);
+  auto pad  = accel.padding;
   for (auto index : accel.bounded) {
     auto& box   = accel.objects[index].world_bounds;
     auto  scale = std::max(max(abs(box.min)), max(abs(box.max)));
@@ -110,6 +110,7 @@ embree_bvh make_embree_bvh(const accel_data& accel) {
 struct embree_context {
   RTCIntersectContext context     = {};  // must come first
   const accel_data*   accel       = nullptr;
+  const march_params* march       = nullptr;
   const ray3f*        ray         = nullptr;  // with the caller's tmax
   int                 object      = invalidid;
   float               epsilon     = 0;
@@ -126,7 +127,8 @@ static void embree_intersect(const RTCIntersectFunctionNArguments* args) {
   auto& rayhit  = *(RTCRayHit*)args->rayhit;
   auto  object  = context.accel->bounded[args->primID];
   auto  tfar    = rayhit.ray.tfar;
-  auto  isec    = intersect_object(*context.accel, object, *context.ray, tfar);
+  auto  isec    = intersect_object(
+          *context.accel, *context.march, object, *context.ray, tfar);
   context.evaluations += isec.evaluations;
   if (!isec.hit || isec.distance > tfar) return;
   if (isec.distance == tfar && context.object != invalidid &&
@@ -152,8 +154,8 @@ static void embree_occluded(const RTCOccludedFunctionNArguments* args) {
   auto& context = *(embree_context*)args->context;
   auto& ray     = *(RTCRay*)args->ray;
   auto  object  = context.accel->bounded[args->primID];
-  auto  isec =
-      intersect_object(*context.accel, object, *context.ray, context.ray->tmax);
+  auto  isec    = intersect_object(
+          *context.accel, *context.march, object, *context.ray, context.ray->tmax);
   context.evaluations += isec.evaluations;
   if (isec.hit) ray.tfar = -flt_inf;
 }
@@ -175,11 +177,13 @@ static RTCRay make_embree_ray(const ray3f& ray) {
   return result;
 }
 
-scene_intersection intersect_embree(const accel_data& accel, const ray3f& ray) {
+scene_intersection intersect_embree(
+    const accel_data& accel, const march_params& march, const ray3f& ray) {
   auto isec = scene_intersection{};
   if (!accel.bvh.scene) return isec;
   auto context  = embree_context{};
   context.accel = &accel;
+  context.march = &march;
   context.ray   = &ray;
   rtcInitIntersectContext(&context.context);
   auto rayhit       = RTCRayHit{};
@@ -197,10 +201,12 @@ scene_intersection intersect_embree(const accel_data& accel, const ray3f& ray) {
   return isec;
 }
 
-bool intersect_embree_any(const accel_data& accel, const ray3f& ray) {
+bool intersect_embree_any(
+    const accel_data& accel, const march_params& march, const ray3f& ray) {
   if (!accel.bvh.scene) return false;
   auto context  = embree_context{};
   context.accel = &accel;
+  context.march = &march;
   context.ray   = &ray;
   rtcInitIntersectContext(&context.context);
   auto embree_ray = make_embree_ray(ray);

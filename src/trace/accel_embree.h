@@ -10,19 +10,15 @@
 
 namespace implicit {
 
-// Padding of object boxes against rounding, so that surfaces lying on a box
-// face (boxes, thin boxes) are never clipped.
-inline float object_box_padding(const accel_data& accel) {
-  return accel.hit_min + accel.march.hit_relative * 1e-3f;
-}
-
 // Build the BVH of accel.bounded. Throws io_error if Embree fails.
 embree_bvh make_embree_bvh(const accel_data& accel);
 
 // Closest hit among the bounded objects; `evaluations` counts all of them.
-scene_intersection intersect_embree(const accel_data& accel, const ray3f& ray);
+scene_intersection intersect_embree(
+    const accel_data& accel, const march_params& march, const ray3f& ray);
 
 // Whether any bounded object is hit.
-bool intersect_embree_any(const accel_data& accel, const ray3f& ray);
+bool intersect_embree_any(
+    const accel_data& accel, const march_params& march, const ray3f& ray);
 
 }  // namespace implicit

@@ -25,14 +25,15 @@ constexpr size_t test_prune_bytes = size_t{4} << 20;
 
 image_data render_normals(
     const scene_data& scene, accel_type type, int resolution) {
-  auto params              = trace_params{};
-  params.march.prune_bytes = test_prune_bytes;
-  params.resolution        = resolution;
-  params.samples           = 1;
-  params.shader            = shader_type::implicit_normal;
-  auto accel               = make_accel(scene, type, params.march);
-  auto lights              = make_lights(scene, accel);
-  auto state               = make_state(scene, params);
+  auto params       = trace_params{};
+  params.resolution = resolution;
+  params.samples    = 1;
+  params.shader     = shader_type::implicit_normal;
+  auto build        = accel_params{};
+  build.prune_bytes = test_prune_bytes;
+  auto accel        = make_accel(scene, type, build);
+  auto lights       = make_lights(scene, accel);
+  auto state        = make_state(scene, params);
   trace_samples(state, scene, accel, lights, params);
   return get_render(state);
 }
@@ -61,9 +62,9 @@ double coverage(const image_data& image) {
 // Accelerated and reference normals of a 1,000-operand model.
 static void check_agreement(sdf_model_type type) {
   auto scene        = make_model_scene(make_sdf_model(type, 1000, 3));
-  auto march        = march_params{};
-  march.prune_bytes = test_prune_bytes;
-  auto fast         = make_accel(scene, accel_type::bvh, march);
+  auto build        = accel_params{};
+  build.prune_bytes = test_prune_bytes;
+  auto fast         = make_accel(scene, accel_type::bvh, build);
   if (type == sdf_model_type::hard_union) {
     CHECK(fast.objects.size() == 1000);
   } else {

@@ -61,22 +61,22 @@ TEST_CASE("accel: hits and misses on known geometry") {
     auto accel = make_accel(scene, type, {});
     CHECK(accel.unbounded.empty());
     // Sphere straight on (exact in bvh mode, marched in the reference).
-    auto isec = intersect_scene(accel, {{0, 0, -5}, {0, 0, 1}});
+    auto isec = intersect_scene(accel, {}, {{0, 0, -5}, {0, 0, 1}});
     REQUIRE(isec.hit);
     CHECK(isec.object == 0);
     CHECK(isec.distance == doctest::Approx(4.0f).epsilon(1e-3));
     // Torus (marched): ray down the y axis through the tube at x = 5.
-    isec = intersect_scene(accel, {{5, 3, 0}, {0, -1, 0}});
+    isec = intersect_scene(accel, {}, {{5, 3, 0}, {0, -1, 0}});
     REQUIRE(isec.hit);
     CHECK(isec.object == 1);
     CHECK(isec.distance == doctest::Approx(2.75f).epsilon(1e-3));
     // Through the torus hole onto the floor at y = -2 + 1e-5.
-    isec = intersect_scene(accel, {{4, 3, 0}, {0, -1, 0}});
+    isec = intersect_scene(accel, {}, {{4, 3, 0}, {0, -1, 0}});
     REQUIRE(isec.hit);
     CHECK(isec.object == 2);
     CHECK(isec.distance == doctest::Approx(5.0f).epsilon(1e-3));
     // Up into the sky.
-    isec = intersect_scene(accel, {{0, 3, 0}, {0, 1, 0}});
+    isec = intersect_scene(accel, {}, {{0, 3, 0}, {0, 1, 0}});
     CHECK(!isec.hit);
   }
 }
@@ -91,11 +91,13 @@ TEST_CASE("accel: grazing rays near silhouettes do not leak") {
     auto accel = make_accel(scene, type, {});
     for (auto k = 1; k <= 50; k++) {
       auto offset = 0.25f * k / 1000.0f;  // up to 5% of the tube radius
-      auto inner = intersect_scene(accel, {{-3, 0.25f - offset, 1}, {1, 0, 0}});
-      auto outer = intersect_scene(accel, {{-3, 0.25f + offset, 1}, {1, 0, 0}});
+      auto inner =
+          intersect_scene(accel, {}, {{-3, 0.25f - offset, 1}, {1, 0, 0}});
+      auto outer =
+          intersect_scene(accel, {}, {{-3, 0.25f + offset, 1}, {1, 0, 0}});
       CHECK(inner.hit);
       // Closer than the closest-approach tolerance counts as touching.
-      auto tolerance = accel.march.fallback * hit_epsilon(accel, 4.0f);
+      auto tolerance = march_params{}.fallback * hit_epsilon(accel, {}, 4.0f);
       if (offset > tolerance) CHECK(!outer.hit);
     }
   }
@@ -104,11 +106,11 @@ TEST_CASE("accel: grazing rays near silhouettes do not leak") {
 TEST_CASE("accel: rays from inside reach the exit") {
   auto scene = make_test_scene();
   auto accel = make_accel(scene, accel_type::bvh, {});
-  auto isec  = intersect_scene(accel, {{0, 0, 0}, {0, 0, 1}});
+  auto isec  = intersect_scene(accel, {}, {{0, 0, 0}, {0, 0, 1}});
   REQUIRE(isec.hit);
   CHECK(isec.distance == doctest::Approx(1.0f).epsilon(1e-3));
   // Inside the torus tube (marched, following the negative distance).
-  isec = intersect_scene(accel, {{5, 0, 0}, {0, 1, 0}});
+  isec = intersect_scene(accel, {}, {{5, 0, 0}, {0, 1, 0}});
   REQUIRE(isec.hit);
   CHECK(isec.object == 1);
   CHECK(isec.distance == doctest::Approx(0.25f).epsilon(1e-3));
@@ -124,7 +126,7 @@ TEST_CASE("accel: normals and no self-hit after spawning") {
                   (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 2.5f;
     auto origin = target + sample_sphere(rand2f(rng)) * 3;
     auto ray    = ray3f{origin, normalize(target - origin)};
-    auto isec   = intersect_scene(accel, ray);
+    auto isec   = intersect_scene(accel, {}, ray);
     if (!isec.hit || isec.object != 1) continue;
     auto p = ray_point(ray, isec.distance);
     auto n = eval_object_normal(accel.objects[1], p, isec.epsilon * 0.5f);
@@ -135,10 +137,10 @@ TEST_CASE("accel: normals and no self-hit after spawning") {
     CHECK(dot(n, exact) > 0.999f);
     // Leaving on the outside along a direction in the upper hemisphere must
     // not hit the torus at distance ~0.
-    auto offset = 2 * isec.epsilon + 2 * accel.hit_min;
+    auto offset = 2 * isec.epsilon + 2 * min_hit_epsilon(accel, {});
     auto dir    = normalize(n + sample_sphere(rand2f(rng)) * 0.9f);
     if (dot(dir, n) <= 0.05f) continue;
-    auto next = intersect_scene(accel, {p + n * offset, dir});
+    auto next = intersect_scene(accel, {}, {p + n * offset, dir});
     if (next.hit && next.object == 1) CHECK(next.distance > 10 * offset);
   }
 }
@@ -157,7 +159,7 @@ TEST_CASE("accel: world bounds of rotated and scaled objects") {
   CHECK(box.max.y == doctest::Approx(0.625f));
   CHECK(accel.objects[0].distance_scale == doctest::Approx(0.5f));
   // A ray along world x hits the ring's tube centre line at |y| = 0.5.
-  auto isec = intersect_scene(accel, {{0, 0.5f, -3}, {0, 0, 1}});
+  auto isec = intersect_scene(accel, {}, {{0, 0.5f, -3}, {0, 0, 1}});
   REQUIRE(isec.hit);
   CHECK(isec.distance == doctest::Approx(2.625f).epsilon(2e-3));
 }
@@ -199,8 +201,8 @@ static std::vector<ray3f> make_random_rays(int count, uint64_t seed) {
 }
 
 // Accel options: `linear_max` 0 sends every scene through the Embree BVH.
-static march_params bvh_params(int linear_max) {
-  auto params       = march_params{};
+static accel_params bvh_params(int linear_max) {
+  auto params       = accel_params{};
   params.linear_max = linear_max;
   return params;
 }
@@ -211,7 +213,7 @@ static scene_intersection intersect_all(
     const accel_data& accel, const ray3f& ray) {
   auto best = scene_intersection{};
   for (auto i = 0; i < (int)accel.objects.size(); i++) {
-    auto isec = intersect_object(accel, i, ray);
+    auto isec = intersect_object(accel, {}, i, ray);
     if (isec.hit && (!best.hit || isec.distance < best.distance)) best = isec;
   }
   return best;
@@ -230,7 +232,7 @@ TEST_CASE("accel: BVH hits equal the minimum over all objects") {
   auto rays = make_random_rays(4000, 2);
   auto hits = 0;
   for (auto& ray : rays) {
-    auto isec     = intersect_scene(accel, ray);
+    auto isec     = intersect_scene(accel, {}, ray);
     auto expected = intersect_all(accel, ray);
     REQUIRE(isec.hit == expected.hit);
     if (!isec.hit) continue;
@@ -251,7 +253,7 @@ TEST_CASE("accel: sorted loop and BVH give the same hits") {
   CHECK(loop.bvh.scene == nullptr);
   CHECK(bvh.bvh.scene != nullptr);
   for (auto& ray : make_random_rays(3000, 4)) {
-    auto a = intersect_scene(loop, ray), b = intersect_scene(bvh, ray);
+    auto a = intersect_scene(loop, {}, ray), b = intersect_scene(bvh, {}, ray);
     REQUIRE(a.hit == b.hit);
     CHECK(a.object == b.object);
     CHECK(a.distance == b.distance);
@@ -264,22 +266,22 @@ TEST_CASE("accel: BVH is thread-safe and deterministic") {
   auto again  = make_accel(scene, accel_type::bvh, bvh_params(0));
   auto rays   = make_random_rays(4000, 6);
   auto serial = std::vector<scene_intersection>{};
-  for (auto& ray : rays) serial.push_back(intersect_scene(accel, ray));
+  for (auto& ray : rays) serial.push_back(intersect_scene(accel, {}, ray));
   auto parallel = std::vector<scene_intersection>(rays.size());
   tbb::parallel_for(size_t{0}, rays.size(),
-      [&](size_t k) { parallel[k] = intersect_scene(accel, rays[k]); });
+      [&](size_t k) { parallel[k] = intersect_scene(accel, {}, rays[k]); });
   for (size_t k = 0; k < rays.size(); k++) {
     CHECK(parallel[k].object == serial[k].object);
     CHECK(parallel[k].distance == serial[k].distance);
     CHECK(parallel[k].evaluations == serial[k].evaluations);
     // A second build visits the objects in the same order.
-    auto other = intersect_scene(again, rays[k]);
+    auto other = intersect_scene(again, {}, rays[k]);
     CHECK(other.distance == serial[k].distance);
     CHECK(other.evaluations == serial[k].evaluations);
   }
   // Moving the accel keeps its BVH.
   auto moved = std::move(accel);
-  CHECK(intersect_scene(moved, rays[0]).distance == serial[0].distance);
+  CHECK(intersect_scene(moved, {}, rays[0]).distance == serial[0].distance);
 }
 
 // Whether the ray only grazes an object: inside its box, the object's
@@ -294,7 +296,7 @@ static bool grazes(
   for (auto k = 0; k <= samples; k++) {
     auto t = t0 + (t1 - t0) * k / samples;
     auto d = eval_object_distance(accel.objects[object], ray_point(ray, t));
-    if (d < -tolerance * hit_epsilon(accel, t)) return false;
+    if (d < -tolerance * hit_epsilon(accel, {}, t)) return false;
   }
   return true;
 }
@@ -314,8 +316,8 @@ TEST_CASE("accel: BVH and reference mode agree on random scenes") {
       for (auto i = 0; i < size; i++) {
         auto ray =
             eval_camera(camera, {(i + 0.5f) / size, (j + 0.5f) / size}, {0, 0});
-        auto a = intersect_scene(fast, ray);
-        auto b = intersect_scene(slow, ray);
+        auto a = intersect_scene(fast, {}, ray);
+        auto b = intersect_scene(slow, {}, ray);
         // Marched hits stop within the threshold of the surface, so along
         // grazing rays their distance may differ by more than it.
         if (a.hit == b.hit &&
@@ -381,8 +383,8 @@ TEST_CASE("accel: shadow queries agree with closest hits") {
         for (auto ray : make_random_rays(count, 13)) {
           // Finite segments, as for shadow rays toward a light.
           ray.tmax = 0.5f + 12 * rand1f(rng);
-          auto any = intersect_scene_any(accel, ray);
-          CHECK(any == intersect_scene(accel, ray).hit);
+          auto any = intersect_scene_any(accel, {}, ray);
+          CHECK(any == intersect_scene(accel, {}, ray).hit);
           hits += any;
         }
         CHECK(hits > count / 10);
@@ -412,11 +414,11 @@ TEST_CASE("accel: rays starting inside objects reach their exit") {
       REQUIRE(eval_object_distance(object, center) < 0);
       for (auto k = 0; k < 8; k++) {
         auto ray  = ray3f{center, sample_sphere(rand2f(rng))};
-        auto isec = intersect_scene(accel, ray);
+        auto isec = intersect_scene(accel, {}, ray);
         REQUIRE(isec.hit);
         auto p = ray_point(ray, isec.distance);
         auto d = eval_object_distance(accel.objects[isec.object], p);
-        CHECK(std::abs(d) <= accel.march.fallback * isec.epsilon);
+        CHECK(std::abs(d) <= march_params{}.fallback * isec.epsilon);
         if (type == accel_type::bvh) {
           // The exit of this object, or a surface of an overlapping one
           // inside it (objects are separate surfaces).
@@ -442,7 +444,7 @@ TEST_CASE("accel: rays starting inside objects reach their exit") {
       {1 / 1.5f, 0, 0}, {0, 1 / 1.5f, 0}, {0, 0, 1 / 1.5f}, {0, 0, 0}};
   for (auto type : {accel_type::bvh, accel_type::none}) {
     auto accel = make_accel(single, type, bvh_params(0));
-    auto isec  = intersect_scene(accel, {{0.5f, 0, 0}, {0, 1, 0}});
+    auto isec  = intersect_scene(accel, {}, {{0.5f, 0, 0}, {0, 1, 0}});
     REQUIRE(isec.hit);
     CHECK(isec.distance == doctest::Approx(std::sqrt(9 - 0.25f)).epsilon(1e-4));
   }
@@ -464,12 +466,12 @@ TEST_CASE("accel: rays parallel to box faces") {
   for (auto linear_max : {0, 16}) {
     for (auto type : {accel_type::bvh, accel_type::none}) {
       auto accel = make_accel(scene, type, bvh_params(linear_max));
-      auto tol   = accel.march.fallback * hit_epsilon(accel, 3);
+      auto tol   = march_params{}.fallback * hit_epsilon(accel, {}, 3);
       for (auto y : {0.5f, 0.999f, 1.0f, 0.0f, 1.001f, -0.001f, 1.01f}) {
         for (auto z : {0.5f, 0.0f, 1.0f}) {
           auto ray  = ray3f{{-2, y, z}, {1, 0, 0}};
-          auto isec = intersect_scene(accel, ray);
-          auto any  = intersect_scene_any(accel, ray);
+          auto isec = intersect_scene(accel, {}, ray);
+          auto any  = intersect_scene_any(accel, {}, ray);
           CHECK(any == isec.hit);
           auto outside = y > 1 + tol || y < -tol;
           if (outside) {
@@ -482,7 +484,7 @@ TEST_CASE("accel: rays parallel to box faces") {
         }
       }
       // A ray inside the box, parallel to its faces, exits at x = 1.
-      auto isec = intersect_scene(accel, {{0.25f, 0.5f, 0.5f}, {1, 0, 0}});
+      auto isec = intersect_scene(accel, {}, {{0.25f, 0.5f, 0.5f}, {1, 0, 0}});
       REQUIRE(isec.hit);
       CHECK(isec.distance == doctest::Approx(0.75f).epsilon(1e-4));
     }
@@ -505,12 +507,12 @@ TEST_CASE("accel: grazing spheres") {
         make_function(sphere_node(0.1f), {k * 1.0f, -20, 0}));
   for (auto type : {accel_type::bvh, accel_type::none}) {
     auto accel = make_accel(scene, type, bvh_params(0));
-    auto tol   = accel.march.fallback * hit_epsilon(accel, 10);
+    auto tol   = march_params{}.fallback * hit_epsilon(accel, {}, 10);
     for (auto k = -40; k <= 40; k++) {
       auto offset = k * 2e-5f;  // around the silhouette, in world units
       auto ray    = ray3f{{1 - 10, 1 + 1 + offset, 1}, {1, 0, 0}};
-      auto isec   = intersect_scene(accel, ray);
-      CHECK(intersect_scene_any(accel, ray) == isec.hit);
+      auto isec   = intersect_scene(accel, {}, ray);
+      CHECK(intersect_scene_any(accel, {}, ray) == isec.hit);
       if (offset < -tol) {
         REQUIRE(isec.hit);
         CHECK(isec.object == 0);
@@ -627,12 +629,31 @@ TEST_CASE("accel: outlives its scene (grids and user SDFs are its own)") {
   }
   // The scene is gone; both objects still trace (ASan would flag a use of
   // its memory).
-  auto grid_hit = intersect_scene(accel, {{0.5f, 0.5f, -2}, {0, 0, 1}});
+  auto grid_hit = intersect_scene(accel, {}, {{0.5f, 0.5f, -2}, {0, 0, 1}});
   REQUIRE(grid_hit.hit);
   CHECK(accel.objects[grid_hit.object].kind == object_kind::grid);
   CHECK(grid_hit.distance == doctest::Approx(2.1f).epsilon(0.01));
-  auto user_hit = intersect_scene(accel, {{3, 0, -2}, {0, 0, 1}});
+  auto user_hit = intersect_scene(accel, {}, {{3, 0, -2}, {0, 0, 1}});
   REQUIRE(user_hit.hit);
   CHECK(accel.objects[user_hit.object].kind == object_kind::user);
   CHECK(user_hit.distance == doctest::Approx(1.5f).epsilon(1e-3));
+}
+
+TEST_CASE("accel: march parameters are read when tracing") {
+  // One accel traced with two iteration caps: the cap binds at trace time
+  // (nothing is rebuilt), and the default cap finds the torus a cap of 2
+  // gives up on.
+  auto scene = scene_data{};
+  scene.materials.push_back({});
+  scene.sdfunctions.push_back(make_function(torus_node(1, 0.25f), {0, 0, 0}));
+  auto accel            = make_accel(scene, accel_type::bvh);
+  auto ray              = ray3f{{-4, 0.1f, 0}, {1, 0, 0}};
+  auto capped           = march_params{};
+  capped.max_iterations = 2;
+  auto full             = intersect_scene(accel, {}, ray);
+  auto cut              = intersect_scene(accel, capped, ray);
+  CHECK(full.hit);
+  CHECK_FALSE(cut.hit);
+  CHECK(cut.evaluations <= 2);
+  CHECK(cut.evaluations < full.evaluations);
 }

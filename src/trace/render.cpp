@@ -30,11 +30,11 @@ static bool scene_has_emitters(const render_context& context) {
 }
 
 std::unique_ptr<const render_context> make_render_context(
-    scene_data&& scene, const trace_params& params) {
+    scene_data&& scene, const trace_params& params, const accel_params& build) {
   validate_params(params);
   auto context   = std::make_unique<render_context>();
   context->scene = std::move(scene);
-  context->accel = make_accel(context->scene, params.accel, params.march);
+  context->accel = make_accel(context->scene, params.accel, build);
   // Appending a camera moves no object the accel points to.
   add_missing_camera(context->scene, context->accel.bounds);
   context->lights       = make_lights(context->scene, context->accel);
@@ -76,7 +76,6 @@ void validate_params(const trace_params& params) {
   check_float("march.overrelax", march.overrelax, 1.0f, 2.0f);
   check_float("march.planar", march.planar, 0.0f, 1.0f);
   check_float("march.fallback", march.fallback, 0.0f, 1e6f);
-  check_int("march.linear_max", march.linear_max, 0, linear_max_objects);
 }
 
 trace_params resolve_params(const render_context& context,
@@ -227,8 +226,8 @@ render_state make_render_state(const render_context& context,
   return make_state(camera, params);
 }
 
-bool render_step(const render_context& context, const accel_data& accel,
-    render_state& state, int samples, const render_callbacks& callbacks) {
+bool render_step(const render_context& context, render_state& state,
+    int samples, const render_callbacks& callbacks) {
   auto& params   = state.params;
   auto  first    = state.samples;
   auto  counted  = std::max(0, samples);
@@ -237,7 +236,7 @@ bool render_step(const render_context& context, const accel_data& accel,
         for (auto j = tile.y0; j < tile.y1; j++) {
           for (auto i = tile.x0; i < tile.x1; i++) {
             auto idx = (size_t)j * state.width + i;
-            trace_pixel_samples(context.scene, accel, context.lights,
+            trace_pixel_samples(context.scene, context.accel, context.lights,
                  state.camera, params, i, j, state.width, state.height, first,
                  counted, state.accumulated[idx], state.rngs[idx],
                  state.evaluations[idx]);
@@ -247,11 +246,6 @@ bool render_step(const render_context& context, const accel_data& accel,
   if (!finished) return false;
   state.samples += counted;
   return true;
-}
-
-bool render_step(const render_context& context, render_state& state,
-    int samples, const render_callbacks& callbacks) {
-  return render_step(context, context.accel, state, samples, callbacks);
 }
 
 image_data get_image(const render_state& state) {

@@ -41,10 +41,11 @@ struct render_context {
   render_context& operator=(const render_context&) = delete;
 };
 
-// Take the scene, build accel and lights (with params.accel and
-// params.march), and add a camera framing the scene when it has none.
-std::unique_ptr<const render_context> make_render_context(
-    scene_data&& scene, const trace_params& params);
+// Take the scene, build accel (params.accel, `build`) and lights, and add a
+// camera framing the scene when it has none. Nothing in the context depends
+// on the other parameters: renders with any of them share it.
+std::unique_ptr<const render_context> make_render_context(scene_data&& scene,
+    const trace_params& params, const accel_params& build = {});
 
 // Refuse parameters out of range (sizes, counts) or not finite (clamp,
 // exposure, march parameters): throws io_error naming the parameter.
@@ -121,11 +122,6 @@ render_state make_render_state(const render_context& context,
 // state then holds a partial pass and must be discarded.
 bool render_step(const render_context& context, render_state& state,
     int samples = 1, const render_callbacks& callbacks = {});
-
-// As render_step(), with a different accel over the same scene and lights
-// (the viewer's iteration cap, see render_worker.h).
-bool render_step(const render_context& context, const accel_data& accel,
-    render_state& state, int samples, const render_callbacks& callbacks);
 
 // The average so far (linear RGBA, alpha = coverage).
 image_data get_image(const render_state& state);

@@ -79,9 +79,9 @@ static surface_point eval_surface(const scene_data& scene,
 // Start of a ray leaving a surface point toward `direction`: pushed off the
 // surface on that side by more than the hit threshold, so that the march does
 // not stop at its own origin (no acne).
-static ray3f spawn_ray(
-    const accel_data& accel, const surface_point& point, vec3f direction) {
-  auto offset = 2 * point.epsilon + 2 * accel.hit_min;
+static ray3f spawn_ray(const accel_data& accel, const march_params& march,
+    const surface_point& point, vec3f direction) {
+  auto offset = 2 * point.epsilon + 2 * min_hit_epsilon(accel, march);
   auto side   = dot(point.normal, direction) >= 0 ? 1.0f : -1.0f;
   return {
       point.position + point.normal * (offset * side), direction, 0, flt_max};
@@ -118,14 +118,15 @@ static bool blocks_without_emission(
 // let (1 - opacity) through and volumetric (pass-through) objects attenuate
 // by their transmittance, both deterministically; any other surface blocks.
 static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, ray3f ray, int64_t& evaluations) {
+    const march_params& march, const lights_data& lights, ray3f ray,
+    int64_t& evaluations) {
   auto transmittance = vec3f{1, 1, 1};
   auto radiance      = vec3f{0, 0, 0};
   auto inside        = std::array<int, 8>{};  // volumetric objects entered
   auto inside_count  = 0;
   auto entry         = std::array<vec3f, 8>{};
   for (auto crossing = 0; crossing < max_crossings; crossing++) {
-    auto isec = intersect_scene(accel, ray);
+    auto isec = intersect_scene(accel, march, ray);
     evaluations += isec.evaluations;
     if (!isec.hit)
       return radiance + transmittance * eval_environment(scene, lights, ray.d);
@@ -154,7 +155,7 @@ static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
       }
     }
     if (max(transmittance) <= 0) return radiance;
-    ray = spawn_ray(accel, point, ray.d);
+    ray = spawn_ray(accel, march, point, ray.d);
   }
   return radiance;
 }
@@ -285,8 +286,8 @@ static vec3f shade_delta(
 // Never called at the last bounce, whose light sample would count a share of
 // paths one bounce longer than one-sample MIS and the BSDF alone reach.
 static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, path_state& path, const surface_point& point,
-    path_sampler& sampler, int64_t& evaluations) {
+    const march_params& march, const lights_data& lights, path_state& path,
+    const surface_point& point, path_sampler& sampler, int64_t& evaluations) {
   auto& material = point.material;
   auto  outgoing = -path.ray.d;
   auto  light =
@@ -296,8 +297,8 @@ static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
     auto lpdf = sample_lights_pdf(scene, accel, lights, point.position, light);
     if (bsdfcos != vec3f{0, 0, 0} && lpdf > 0) {
       auto bpdf = sample_bsdfcos_pdf(material, point.normal, outgoing, light);
-      auto le   = eval_unscattered(
-            scene, accel, lights, spawn_ray(accel, point, light), evaluations);
+      auto le   = eval_unscattered(scene, accel, march, lights,
+            spawn_ray(accel, march, point, light), evaluations);
       path.radiance +=
           path.weight * bsdfcos * le * (power_heuristic(lpdf, bpdf) / lpdf);
     }
@@ -378,7 +379,7 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     // The last bounce only collects the emission it lands on: the direction
     // it would scatter to is never traced.
     auto last = bounce + 1 == params.bounces;
-    auto isec = intersect_scene(accel, path.ray);
+    auto isec = intersect_scene(accel, params.march, path.ray);
     evaluations += isec.evaluations;
     if (!isec.hit) {
       if (bounce > 0 || !params.envhidden)
@@ -426,7 +427,7 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
         auto ro = next1f(sampler);
         if (ro >= material.opacity) {
           if (path.opacity_skips++ > max_opacity_skips) break;
-          path.ray = spawn_ray(accel, point, path.ray.d);
+          path.ray = spawn_ray(accel, params.march, point, path.ray.d);
           continue;
         }
       }
@@ -445,15 +446,15 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       if (is_delta(material)) {
         incoming = shade_delta(path, point, sampler);
       } else if (two_sample && path.volumes.size == 0) {
-        incoming = shade_two_sample(
-            scene, accel, lights, path, point, sampler, evaluations);
+        incoming = shade_two_sample(scene, accel, params.march, lights, path,
+            point, sampler, evaluations);
       } else {
         incoming = shade_one_sample(
             scene, accel, lights, use_lights, path, point, sampler);
       }
       if (incoming == vec3f{0, 0, 0}) break;
       update_volumes(path, point, outgoing, incoming);
-      path.ray = spawn_ray(accel, point, incoming);
+      path.ray = spawn_ray(accel, params.march, point, incoming);
     }
     if (max(path.weight) <= 0 || !isfinite(path.weight)) break;
 
@@ -481,7 +482,7 @@ static vec3f heat_color(float value) {
 // Debug shaders: one intersection, a value of the first hit.
 static vec4f shade_debug(const scene_data& scene, const accel_data& accel,
     const ray3f& ray, const trace_params& params, int64_t& evaluations) {
-  auto isec = intersect_scene(accel, ray);
+  auto isec = intersect_scene(accel, params.march, ray);
   evaluations += isec.evaluations;
   if (params.shader == shader_type::steps) {
     auto scale = std::log2(1.0f + (float)params.march.max_iterations);
@@ -634,7 +635,7 @@ image_data get_render(const trace_state& state) {
 }
 
 image_data trace_image(const scene_data& scene, const trace_params& params) {
-  auto accel  = make_accel(scene, params.accel, params.march);
+  auto accel  = make_accel(scene, params.accel);
   auto lights = make_lights(scene, accel);
   auto state  = make_state(scene, params);
   for (auto sample = 0; sample < params.samples; sample++)
