@@ -25,7 +25,7 @@
 
 #include "scene/scene_random.h"
 #include "sdf/sdf_models.h"
-#include "trace/trace.h"
+#include "trace/render.h"
 
 using namespace implicit;
 
@@ -48,17 +48,14 @@ struct run_result {
   double evaluations = 0;
 };
 
-static run_result run(
-    const scene_data& scene, const accel_data& accel, trace_params params) {
-  auto lights = make_lights(scene, accel);
-  auto state  = make_state(scene, params);
-  auto start  = cpu_seconds();
-  for (auto s = 0; s < params.samples; s++)
-    trace_samples(state, scene, accel, lights, params);
+static run_result run(const render_context& context, trace_params params) {
+  auto state = make_render_state(context, params);
+  auto start = cpu_seconds();
+  render_step(context, state, params.samples);
   auto result    = run_result{};
   result.seconds = cpu_seconds() - start;
   result.samples = (double)state.width * state.height * params.samples;
-  for (auto e : state.evaluations) result.evaluations += (double)e;
+  for (auto e : state.buffer.evaluations) result.evaluations += (double)e;
   return result;
 }
 
@@ -121,17 +118,19 @@ int main(int argc, char** argv) {
       auto path         = camera;
       path.shader       = shader_type::implicit;
       auto build_start  = cpu_seconds();
-      auto accel        = make_accel(scene, accel_type::bvh);
+      auto context      = make_render_context(scene_data{scene}, camera);
       auto build        = cpu_seconds() - build_start;
-      auto rays         = run(scene, accel, camera);
-      auto paths        = run(scene, accel, path);
+      auto rays         = run(*context, camera);
+      auto paths        = run(*context, path);
       auto per_ray      = rays.seconds / rays.samples * 1e6;
       if (count == counts.front()) first = per_ray;
       auto reference = std::string{"-"}, ratio = std::string{"-"};
       if (count == reference_count) {
-        auto slow = make_accel(scene, accel_type::none);
-        auto ref  = run(scene, slow, camera);
-        auto us   = ref.seconds / ref.samples * 1e6;
+        auto none  = camera;
+        none.accel = accel_type::none;
+        auto slow  = make_render_context(scene_data{scene}, none);
+        auto ref   = run(*slow, none);
+        auto us    = ref.seconds / ref.samples * 1e6;
         char buffer[64];
         std::snprintf(buffer, sizeof(buffer), "%.1f", us);
         reference = buffer;
@@ -142,7 +141,7 @@ int main(int argc, char** argv) {
           "| %s | %d | %.2f | %.1f | %zu | %.1f | %.1f | %.1f | %.2fx | %s | "
           "%s |\n",
           sdf_model_type_names[(int)type].c_str(), count, build,
-          accel_mib(accel), accel.objects.size(), per_ray,
+          accel_mib(context->accel), context->accel.objects.size(), per_ray,
           rays.evaluations / rays.samples, paths.seconds / paths.samples * 1e6,
           per_ray / first, reference.c_str(), ratio.c_str());
       std::fflush(stdout);

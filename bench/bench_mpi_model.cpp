@@ -67,16 +67,17 @@ std::vector<tile_cost> measure_tiles(const std::string& filename,
   auto warnings     = std::vector<std::string>{};
   params            = resolve_params(*context, params, "", warnings);
   setup_seconds     = thread_seconds() - start;
-  auto size         = render_size(*context, params);
-  auto scale        = (double)options.spp / options.samples;
-  auto costs        = std::vector<tile_cost>{};
-  auto sums         = std::vector<vec4f>{};
+  auto  size        = render_size(*context, params);
+  auto  scale       = (double)options.spp / options.samples;
+  auto  costs       = std::vector<tile_cost>{};
+  auto& camera      = context->scene.cameras[params.camera];
   for (auto y = 0; y < size.y; y += options.tile_size) {
     for (auto x = 0; x < size.x; x += options.tile_size) {
-      auto tile = render_tile_rect{x, std::min(x + options.tile_size, size.x),
-          y, std::min(y + options.tile_size, size.y)};
-      auto t0   = thread_seconds();
-      render_tile(*context, params, tile, sums);
+      auto tile   = render_rect{x, std::min(x + options.tile_size, size.x), y,
+          std::min(y + options.tile_size, size.y)};
+      auto t0     = thread_seconds();
+      auto buffer = make_render_buffer(tile, size.x, params.seed);
+      render_pixels(*context, params, camera, tile, 0, params.samples, buffer);
       auto pixels = (double)(tile.x1 - tile.x0) * (tile.y1 - tile.y0);
       costs.push_back({(thread_seconds() - t0) * scale, 2 * 44 + 16 * pixels});
     }

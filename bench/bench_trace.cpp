@@ -133,7 +133,7 @@ static run_result run(const render_context& context, const trace_params& params,
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
   result.samples = (double)state.width * state.height * params.samples;
-  for (auto e : state.evaluations) result.evaluations += (double)e;
+  for (auto e : state.buffer.evaluations) result.evaluations += (double)e;
   result.image = get_image(state);
   return result;
 }

@@ -14,7 +14,7 @@
 
 #include "../src/scene/scene_io.h"
 #include "../src/sdf/sdf_grid.h"
-#include "../src/trace/trace.h"
+#include "../src/trace/render.h"
 #include "fuzz_common.h"
 
 // What a loaded texture or grid file would have given.
@@ -56,7 +56,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     params.resolution = 8;
     params.samples    = 1;
     params.bounces    = 2;
-    trace_image(scene, params);
+    auto context      = make_render_context(std::move(scene), params);
+    auto image        = image_data{};
+    render_image(*context, params, image);
   } catch (const io_error&) {
     // The expected outcome for a malformed scene.
   }

@@ -37,35 +37,42 @@ bool same_bytes(const image_data& a, const image_data& b) {
              a.pixels.size() * sizeof(vec4f)) == 0;
 }
 
-// The image assembled from tiles of random sizes, rendered in random order,
-// each as an MPI rank would: render_tile() then the shared averaging.
+// The image assembled from tiles of random sizes, rendered in random order
+// and in random sample ranges, each as an MPI rank would: render_pixels()
+// into a tile's buffer, the sums copied into the image's, then the shared
+// averaging.
 image_data render_by_tiles(
     const render_context& context, const trace_params& params, uint32_t seed) {
-  auto size = render_size(context, params);
-  auto rng  = std::mt19937{seed};
-  auto cut  = [&](int extent) {
+  auto  size   = render_size(context, params);
+  auto& camera = context.scene.cameras[params.camera];
+  auto  rng    = std::mt19937{seed};
+  auto  cut    = [&](int extent) {
     auto cuts = std::vector<int>{0};
     while (cuts.back() < extent)
       cuts.push_back(std::min(extent, cuts.back() + 1 + (int)(rng() % 13)));
     return cuts;
   };
   auto xs = cut(size.x), ys = cut(size.y);
-  auto tiles = std::vector<render_tile_rect>{};
+  auto tiles = std::vector<render_rect>{};
   for (size_t j = 0; j + 1 < ys.size(); j++)
     for (size_t i = 0; i + 1 < xs.size(); i++)
       tiles.push_back({xs[i], xs[i + 1], ys[j], ys[j + 1]});
   std::shuffle(tiles.begin(), tiles.end(), rng);
-  auto accumulated = std::vector<vec4f>((size_t)size.x * size.y);
-  auto sums        = std::vector<vec4f>{};
+  auto image = make_render_buffer({0, size.x, 0, size.y}, size.x, params.seed);
   for (auto& tile : tiles) {
-    render_tile(context, params, tile, sums);
+    auto buffer = make_render_buffer(tile, size.x, params.seed);
+    for (auto s0 = 0; s0 < params.samples;) {
+      auto s1 = std::min(params.samples, s0 + 1 + (int)(rng() % 2));
+      render_pixels(context, params, camera, tile, s0, s1, buffer);
+      s0 = s1;
+    }
     auto width = tile.x1 - tile.x0;
     for (auto j = tile.y0; j < tile.y1; j++)
       for (auto i = tile.x0; i < tile.x1; i++)
-        accumulated[(size_t)j * size.x + i] =
-            sums[(size_t)(j - tile.y0) * width + (i - tile.x0)];
+        image.sums[(size_t)j * size.x + i] =
+            buffer.sums[(size_t)(j - tile.y0) * width + (i - tile.x0)];
   }
-  return average_samples(accumulated, size.x, size.y, params.samples);
+  return average_samples(image, params.samples);
 }
 
 }  // namespace
@@ -150,11 +157,16 @@ TEST_CASE("render core: one validation refuses bad parameters") {
   auto image        = image_data{};
   CHECK_THROWS_AS(render_image(*context, params, image), io_error);
   CHECK_THROWS_AS(make_render_state(*context, params), io_error);
-  auto sums = std::vector<vec4f>{};
-  CHECK_THROWS_AS(render_tile(*context, params, {0, 1, 0, 1}, sums), io_error);
-  params.clamp = 10;
+  auto& camera = context->scene.cameras[params.camera];
+  auto  tile   = make_render_buffer({0, 1, 0, 1}, 1, params.seed);
   CHECK_THROWS_AS(
-      render_tile(*context, params, {0, 100, 0, 1}, sums), io_error);
+      render_samples(*context, params, camera, 0, 1, tile), io_error);
+  params.clamp = 10;
+  auto outside = make_render_buffer({0, 100, 0, 1}, 100, params.seed);
+  CHECK_THROWS_AS(
+      render_samples(*context, params, camera, 0, 1, outside), io_error);
+  CHECK_THROWS_AS(
+      render_samples(*context, params, camera, 2, 1, tile), io_error);
 }
 
 TEST_CASE("render core: fallbacks for cameras and lights") {

@@ -9,7 +9,7 @@
 #include "scene/scene_io.h"
 #include "shared_data.h"
 #include "test_commands.h"
-#include "trace/trace.h"
+#include "trace/render.h"
 
 using namespace implicit;
 
@@ -33,6 +33,14 @@ double equal_fraction(
   return (double)equal / a.pixels.size();
 }
 
+// Render a loaded scene through the render core, as every front end does.
+image_data render_scene(scene_data scene, const trace_params& params) {
+  auto context = make_render_context(std::move(scene), params);
+  auto image   = image_data{};
+  render_image(*context, params, image);
+  return image;
+}
+
 double coverage(const image_data& image) {
   auto sum = 0.0;
   for (auto& p : image.pixels) sum += p.w;
@@ -50,9 +58,9 @@ TEST_CASE("render: default tracer and reference mode agree on normals") {
     params.resolution = 120;
     params.samples    = 1;
     params.shader     = shader_type::implicit_normal;
-    auto fast         = trace_image(scene, params);
+    auto fast         = render_scene(scene, params);
     params.accel      = accel_type::none;
-    auto reference    = trace_image(scene, params);
+    auto reference    = render_scene(scene, params);
     CHECK(coverage(fast) > 0.5);
     CHECK(
         coverage(fast) == doctest::Approx(coverage(reference)).epsilon(0.002));
@@ -67,7 +75,7 @@ TEST_CASE("render: the example renders lit, with no NaN") {
   params.camera     = find_camera(scene, "");
   params.resolution = 96;
   params.samples    = 8;
-  auto image        = trace_image(scene, params);
+  auto image        = render_scene(scene, params);
   auto mean         = 0.0;
   for (auto& p : image.pixels) {
     CHECK(isfinite(xyz(p)));
@@ -130,7 +138,7 @@ TEST_CASE("render: seed scenes, normals without holes on grids") {
     params.resolution = 360;
     params.samples    = 1;
     params.shader     = shader_type::implicit_normal;
-    auto image        = trace_image(scene, params);
+    auto image        = render_scene(scene, params);
     CHECK(image.width == 360);
     CHECK(image.height == 150);
     CHECK(coverage(image) > 0.7);
@@ -149,7 +157,7 @@ TEST_CASE("render: seed grid scene path traced, no NaN, lit") {
   params.camera = find_camera(scene, "");
   params.resolution = 120;
   params.samples    = 4;
-  auto image        = trace_image(scene, params);
+  auto image        = render_scene(scene, params);
   auto mean         = 0.0;
   for (auto& p : image.pixels) {
     CHECK(isfinite(xyz(p)));
@@ -178,13 +186,13 @@ TEST_CASE("render: grid example baked by ysdf, normals without holes, lit") {
   params.resolution = 240;
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
-  auto image        = trace_image(scene, params);
+  auto image        = render_scene(scene, params);
   CHECK(coverage(image) > 0.7);
   CHECK(count_holes(image) == 0);
   params.shader     = shader_type::implicit;
   params.resolution = 96;
   params.samples    = 4;
-  auto lit          = trace_image(scene, params);
+  auto lit          = render_scene(scene, params);
   auto mean         = 0.0;
   for (auto& p : lit.pixels) {
     CHECK(isfinite(xyz(p)));

@@ -179,39 +179,20 @@ struct tile_work {
 };
 
 // Add samples [s0, s1) to each pixel of the tile, in order, with all threads,
-// through the render core's one pixel loop. (render_tile() always starts at
-// sample 0 with the scene's camera; batches and orbit cameras need more.) A
-// first batch comes without sums and streams: they start at zero and at the
-// pixels' own streams. After the last batch the streams are dropped.
+// through the render core. A first batch comes without sums and streams: they
+// start at zero and at the pixels' own streams. After the last batch the
+// streams are dropped.
 static void render_tile_work(
     const render_setup& setup, const camera_data& camera, tile_work& work) {
   auto& rect   = work.rect;
   auto& params = setup.params;
-  auto  stride = rect.x1 - rect.x0;
-  auto  count  = (size_t)stride * (rect.y1 - rect.y0);
-  if (work.accumulated.empty()) work.accumulated.assign(count, {0, 0, 0, 0});
-  if (work.rngs.empty()) {
-    for (auto j = rect.y0; j < rect.y1; j++)
-      for (auto i = rect.x0; i < rect.x1; i++)
-        work.rngs.push_back(
-            make_pixel_rng(params.seed, (size_t)j * setup.width + i));
-  }
-  // 4x4-pixel tasks: a 64-pixel tile keeps 256 threads of one rank busy.
-  auto range =
-      tbb::blocked_range2d<int>(rect.y0, rect.y1, 4, rect.x0, rect.x1, 4);
-  auto& context = *setup.context;
-  tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& block) {
-    for (auto j = block.rows().begin(); j < block.rows().end(); j++) {
-      for (auto i = block.cols().begin(); i < block.cols().end(); i++) {
-        auto idx         = (size_t)(j - rect.y0) * stride + (i - rect.x0);
-        auto evaluations = int64_t{0};
-        trace_pixel_samples(context.scene, context.accel, context.lights,
-            camera, params, i, j, setup.width, setup.height, work.s0,
-            work.s1 - work.s0, work.accumulated[idx], work.rngs[idx],
-            evaluations);
-      }
-    }
-  });
+  auto  buffer = make_render_buffer(
+       {rect.x0, rect.x1, rect.y0, rect.y1}, setup.width, params.seed);
+  if (!work.accumulated.empty()) buffer.sums = std::move(work.accumulated);
+  if (!work.rngs.empty()) buffer.rngs = std::move(work.rngs);
+  render_samples(*setup.context, params, camera, work.s0, work.s1, buffer);
+  work.accumulated = std::move(buffer.sums);
+  work.rngs        = std::move(buffer.rngs);
   if (work.s1 == params.samples) work.rngs = {};
 }
 
@@ -303,8 +284,8 @@ static std::optional<tile_work> take_work(scheduler& sched) {
   for (auto j = work.rect.y0; j < work.rect.y1; j++) {
     for (auto i = work.rect.x0; i < work.rect.x1; i++) {
       auto idx = (size_t)j * state.width + i;
-      work.accumulated.push_back(state.accumulated[idx]);
-      work.rngs.push_back(state.rngs[idx]);
+      work.accumulated.push_back(state.buffer.sums[idx]);
+      work.rngs.push_back(state.buffer.rngs[idx]);
     }
   }
   return work;
@@ -329,7 +310,7 @@ static void copy_tile(const tile_work& work, int width,
 static void finish_work(scheduler& sched, const tile_work& work) {
   auto& job   = sched.active.at(work.frame);
   auto& state = job.state;
-  copy_tile(work, state.width, state.accumulated, &state.rngs);
+  copy_tile(work, state.width, state.buffer.sums, &state.buffer.rngs);
   auto  last_batch = (int)sched.plan.batches.size() - 1;
   auto& options    = *sched.options;
   if (work.batch < last_batch) {
@@ -337,7 +318,7 @@ static void finish_work(scheduler& sched, const tile_work& work) {
         {work.frame, work.tile, work.batch + 1, work.rect, 0, 0, {}, {}});
     if (options.savebatch > 0) {
       auto& sums = job.batch_sums[work.batch];
-      if (sums.empty()) sums.assign(state.accumulated.size(), {0, 0, 0, 0});
+      if (sums.empty()) sums.assign(state.buffer.sums.size(), {0, 0, 0, 0});
       copy_tile(work, state.width, sums, nullptr);
     }
   }
@@ -351,8 +332,9 @@ static void finish_work(scheduler& sched, const tile_work& work) {
     save_image(output, get_image(state), params.exposure, params.filmic);
     sched.active.erase(work.frame);
   } else if (options.savebatch > 0) {
-    auto image = average_samples(
-        job.batch_sums.at(work.batch), state.width, state.height, work.s1);
+    auto sums = render_buffer{
+        {0, state.width, 0, state.height}, job.batch_sums.at(work.batch)};
+    auto image = average_samples(sums, work.s1);
     save_image(
         batch_filename(output, work.s1), image, params.exposure, params.filmic);
     job.batch_sums.erase(work.batch);
@@ -368,8 +350,10 @@ static void render_local(scheduler& sched) {
     {
       auto lock = std::unique_lock<std::mutex>(sched.mutex);
       sched.changed.wait(lock, [&] {
-        return !sched.error.empty() || sched.unassigned == 0 ||
-               (work = take_work(sched)).has_value();
+        if (!sched.error.empty() || sched.unassigned == 0) return true;
+        auto next = take_work(sched);
+        if (next) work.emplace(std::move(*next));
+        return work.has_value();
       });
       if (!work) return;
       camera = sched.active.at(work->frame).camera;

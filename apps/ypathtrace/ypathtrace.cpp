@@ -191,10 +191,6 @@ static void on_signal(int) { interrupted.store(true); }
 
 static bool is_interrupted(void*) { return interrupted.load(); }
 
-// Samples per pixel in one pass at most: Ctrl-C is seen between tiles, so a
-// tile must not take long.
-static constexpr int max_pass_samples = 64;
-
 // The bar during one pass of `count` samples from `first`: it moves as the
 // pass's tiles finish (the library calls one at a time).
 struct pass_progress {

@@ -2,7 +2,7 @@
 //
 // The viewer's renderer, free of any window system: a worker thread that
 // renders a low-resolution preview (resolution / pratio, one sample) and then
-// adds one sample per pixel per pass to a trace_state, publishing the average
+// adds one sample per pixel per pass to a render_state, publishing the average
 // after each pass. The interface thread never waits for a pass: it posts jobs
 // and takes the latest finished image under a mutex held only for a swap. A
 // new job cancels the current one between tiles, so a restart costs at most

@@ -84,7 +84,7 @@ TEST_CASE("render_worker: a cancellable pass is a render_step pass") {
   }
   CHECK(state.samples == 2);
   CHECK(same_pixels(get_image(state), get_image(reference)));
-  CHECK(state.evaluations == reference.evaluations);
+  CHECK(state.buffer.evaluations == reference.buffer.evaluations);
 
   // A newer job: no tile is traced and the sample is not counted.
   auto fresh = make_render_state(*context, params);
@@ -92,7 +92,7 @@ TEST_CASE("render_worker: a cancellable pass is a render_step pass") {
   CHECK_FALSE(render_step_cancellable(*context, fresh, latest, 7));
   CHECK(fresh.samples == 0);
   auto traced = 0;
-  for (auto& p : fresh.accumulated) traced += (p.x != 0 || p.w != 0);
+  for (auto& p : fresh.buffer.sums) traced += (p.x != 0 || p.w != 0);
   CHECK(traced == 0);
 }
 

@@ -2,9 +2,10 @@
 //
 // `ypathtrace --interactive`: a GLFW window (OpenGL 3.3 core) with a Dear
 // ImGui panel on the left and the progressive render on the right, as
-// Yocto/GL's viewer. The render runs on a render_worker (render_worker.h),
-// the same make_state/trace_pixel/get_render path as the command line; this
-// module only shows images and turns input into new render jobs.
+// Yocto/GL's viewer. The render runs on a render_worker (render_worker.h):
+// render_step() and get_image() of the render core, the one render loop of
+// the command line too; this module only shows images and turns input into
+// new render jobs.
 #pragma once
 
 #include <string>

@@ -9,7 +9,7 @@
 #include "../scene/scene_random.h"
 #include "../sdf/sdf_models.h"
 #include "accel.h"
-#include "trace.h"
+#include "render.h"
 
 using namespace implicit;
 
@@ -29,13 +29,13 @@ image_data render_normals(
   params.resolution = resolution;
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
+  params.accel      = type;
   auto build        = accel_params{};
   build.prune_bytes = test_prune_bytes;
-  auto accel        = make_accel(scene, type, build);
-  auto lights       = make_lights(scene, accel);
-  auto state        = make_state(scene, params);
-  trace_samples(state, scene, accel, lights, params);
-  return get_render(state);
+  auto context      = make_render_context(scene_data{scene}, params, build);
+  auto image        = image_data{};
+  render_image(*context, params, image);
+  return image;
 }
 
 // Fraction of pixels whose RGBA agree within `tolerance`.

@@ -14,8 +14,8 @@
 #include "../math/sampling.h"
 #include "../scene/scene_random.h"
 #include "../sdf/sdf_primitives.h"
+#include "render.h"
 #include "sphere_trace.h"
-#include "trace.h"
 
 using namespace implicit;
 
@@ -349,11 +349,12 @@ TEST_CASE("accel: BVH and reference images are equal") {
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
   auto render       = [&](accel_type type) {
-    auto accel  = make_accel(scene, type, bvh_params(0));
-    auto lights = make_lights(scene, accel);
-    auto state  = make_state(scene, params);
-    trace_samples(state, scene, accel, lights, params);
-    return get_render(state);
+    auto typed   = params;
+    typed.accel  = type;
+    auto context = make_render_context(scene_data{scene}, typed, bvh_params(0));
+    auto image   = image_data{};
+    render_image(*context, typed, image);
+    return image;
   };
   auto fast = render(accel_type::bvh), slow = render(accel_type::none);
   auto equal = 0;

@@ -106,151 +106,166 @@ vec2i render_size(const render_context& context, const trace_params& params) {
 }
 
 // -----------------------------------------------------------------------------
-// TILES
+// BUFFERS
 // -----------------------------------------------------------------------------
 
-// Every sample of a tile of an image of the given size.
-static void render_tile_samples(const render_context& context,
-    const camera_data& camera, const trace_params& params, vec2i size,
-    const render_tile_rect& tile, std::vector<vec4f>& accumulated) {
-  auto tile_width = tile.x1 - tile.x0;
-  accumulated.assign((size_t)tile_width * (tile.y1 - tile.y0), {0, 0, 0, 0});
-  auto evaluations = int64_t{0};
-  for (auto j = tile.y0; j < tile.y1; j++) {
-    for (auto i = tile.x0; i < tile.x1; i++) {
-      auto rng = make_pixel_rng(params.seed, (size_t)j * size.x + i);
-      auto idx = (size_t)(j - tile.y0) * tile_width + (i - tile.x0);
-      trace_pixel_samples(context.scene, context.accel, context.lights, camera,
-          params, i, j, size.x, size.y, 0, params.samples, accumulated[idx],
-          rng, evaluations);
+rng_state make_pixel_rng(uint64_t seed, size_t index) {
+  return make_rng(seed, (uint64_t)index);
+}
+
+render_buffer make_render_buffer(
+    const render_rect& rect, int width, uint64_t seed) {
+  auto buffer        = render_buffer{};
+  buffer.rect        = rect;
+  auto count         = rect_pixels(rect);
+  buffer.sums        = std::vector<vec4f>(count, {0, 0, 0, 0});
+  buffer.evaluations = std::vector<int64_t>(count, 0);
+  buffer.rngs.reserve(count);
+  for (auto j = rect.y0; j < rect.y1; j++)
+    for (auto i = rect.x0; i < rect.x1; i++)
+      buffer.rngs.push_back(make_pixel_rng(seed, (size_t)j * width + i));
+  return buffer;
+}
+
+void render_pixels(const render_context& context, const trace_params& params,
+    const camera_data& camera, const render_rect& rect, int s0, int s1,
+    render_buffer& buffer) {
+  auto  size   = camera_resolution(camera, params.resolution);
+  auto& held   = buffer.rect;
+  auto  stride = (size_t)(held.x1 - held.x0);
+  for (auto j = rect.y0; j < rect.y1; j++) {
+    for (auto i = rect.x0; i < rect.x1; i++) {
+      auto  idx         = (size_t)(j - held.y0) * stride + (i - held.x0);
+      auto& sum         = buffer.sums[idx];
+      auto& rng         = buffer.rngs[idx];
+      auto& evaluations = buffer.evaluations[idx];
+      for (auto sample = s0; sample < s1; sample++)
+        sum += trace_sample(context.scene, context.accel, context.lights,
+            camera, params, {i, j}, size, sample, rng, evaluations);
     }
   }
 }
 
-void render_tile(const render_context& context, const trace_params& params,
-    const render_tile_rect& tile, std::vector<vec4f>& accumulated) {
-  validate_params(params);
-  auto& camera = params_camera(context, params);
-  auto  size   = camera_resolution(camera, params.resolution);
-  if (tile.x0 < 0 || tile.y0 < 0 || tile.x1 > size.x || tile.y1 > size.y ||
-      tile.x0 > tile.x1 || tile.y0 > tile.y1)
-    throw io_error("render tile [" + std::to_string(tile.x0) + ", " +
-                   std::to_string(tile.x1) + ") x [" + std::to_string(tile.y0) +
-                   ", " + std::to_string(tile.y1) + ") is outside the " +
-                   std::to_string(size.x) + "x" + std::to_string(size.y) +
-                   " image");
-  render_tile_samples(context, camera, params, size, tile, accumulated);
-}
-
-image_data average_samples(
-    const std::vector<vec4f>& accumulated, int width, int height, int samples) {
-  auto image = make_image(width, height);
+image_data average_samples(const render_buffer& buffer, int samples) {
+  auto& rect  = buffer.rect;
+  auto  image = make_image(rect.x1 - rect.x0, rect.y1 - rect.y0);
   for (size_t idx = 0; idx < image.pixels.size(); idx++)
-    image.pixels[idx] = average_samples(accumulated[idx], samples);
+    image.pixels[idx] =
+        samples > 0 ? buffer.sums[idx] * (1.0f / samples) : vec4f{0, 0, 0, 0};
   return image;
 }
 
 // -----------------------------------------------------------------------------
-// WHOLE IMAGES
+// PARALLEL RENDERS
 // -----------------------------------------------------------------------------
 
-// Tile size of the parallel loops: small enough that a cancel takes effect
-// quickly, large enough that scheduling costs nothing.
-inline constexpr int render_tile_size = 16;
+// Block side of the parallel loops: 16 for whole images (scheduling costs
+// nothing, a cancel takes effect soon), 4 for tiles, so that a 64-pixel tile
+// keeps 256 threads of one rank busy.
+static int block_size(const render_rect& rect) {
+  return rect_pixels(rect) >= 128 * 128 ? 16 : 4;
+}
 
-// Run `render(tile)` over the tiles of a width x height image in parallel,
-// asking the cancel callback before each tile and reporting each finished
-// one. Returns false when cancelled.
-template <typename Render>
-static bool for_each_tile(int width, int height,
-    const render_callbacks& callbacks, const Render& render) {
+// Refuse a buffer that does not fit the image or its own rectangle, and a
+// sample range that runs backwards.
+static void check_buffer(
+    const render_buffer& buffer, vec2i size, int s0, int s1) {
+  auto& rect  = buffer.rect;
+  auto  count = rect_pixels(rect);
+  if (rect.x0 < 0 || rect.y0 < 0 || rect.x1 > size.x || rect.y1 > size.y ||
+      rect.x0 > rect.x1 || rect.y0 > rect.y1)
+    throw io_error("render rectangle [" + std::to_string(rect.x0) + ", " +
+                   std::to_string(rect.x1) + ") x [" + std::to_string(rect.y0) +
+                   ", " + std::to_string(rect.y1) + ") is outside the " +
+                   std::to_string(size.x) + "x" + std::to_string(size.y) +
+                   " image");
+  if (buffer.sums.size() != count || buffer.rngs.size() != count ||
+      buffer.evaluations.size() != count)
+    throw io_error("render buffer: arrays do not match its rectangle");
+  if (s0 < 0 || s1 < s0)
+    throw io_error("render samples [" + std::to_string(s0) + ", " +
+                   std::to_string(s1) + "): not a sample range");
+}
+
+bool render_samples(const render_context& context, const trace_params& params,
+    const camera_data& camera, int s0, int s1, render_buffer& buffer,
+    const render_callbacks& callbacks) {
+  validate_params(params);
+  auto& rect = buffer.rect;
+  check_buffer(buffer, camera_resolution(camera, params.resolution), s0, s1);
   auto stopped = std::atomic<bool>{false};
   auto mutex   = std::mutex{};
   auto done    = int64_t{0};
-  auto total   = (int64_t)width * height;
+  auto total   = (int64_t)rect_pixels(rect) * (s1 - s0);
+  auto grain   = block_size(rect);
   auto range   = tbb::blocked_range2d<int>(
-      0, height, render_tile_size, 0, width, render_tile_size);
-  tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& block) {
-    if (stopped.load(std::memory_order_relaxed)) return;
-    if (callbacks.cancel && callbacks.cancel(callbacks.user)) {
-      stopped.store(true, std::memory_order_relaxed);
-      return;
-    }
-    auto tile = render_tile_rect{block.cols().begin(), block.cols().end(),
-        block.rows().begin(), block.rows().end()};
-    render(tile);
-    if (callbacks.progress) {
-      auto lock = std::lock_guard<std::mutex>{mutex};
-      done += (int64_t)(tile.x1 - tile.x0) * (tile.y1 - tile.y0);
-      callbacks.progress(callbacks.user, done, total);
-    }
-  });
+      rect.y0, rect.y1, grain, rect.x0, rect.x1, grain);
+  for (auto p0 = s0; p0 < s1 && !stopped.load(); p0 += max_pass_samples) {
+    auto p1 = std::min(s1, p0 + max_pass_samples);
+    tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& block) {
+      if (stopped.load(std::memory_order_relaxed)) return;
+      if (callbacks.cancel && callbacks.cancel(callbacks.user)) {
+        stopped.store(true, std::memory_order_relaxed);
+        return;
+      }
+      auto pixels = render_rect{block.cols().begin(), block.cols().end(),
+          block.rows().begin(), block.rows().end()};
+      render_pixels(context, params, camera, pixels, p0, p1, buffer);
+      if (callbacks.progress) {
+        auto lock = std::lock_guard<std::mutex>{mutex};
+        done += (int64_t)rect_pixels(pixels) * (p1 - p0);
+        callbacks.progress(callbacks.user, done, total);
+      }
+    });
+  }
   return !stopped.load();
 }
 
-bool render_image(const render_context& context, const trace_params& params,
-    image_data& image, const render_callbacks& callbacks) {
-  validate_params(params);
-  auto& camera      = params_camera(context, params);
-  auto  size        = camera_resolution(camera, params.resolution);
-  auto  accumulated = std::vector<vec4f>((size_t)size.x * size.y);
-  auto  finished    = for_each_tile(
-          size.x, size.y, callbacks, [&](const render_tile_rect& tile) {
-        auto sums = std::vector<vec4f>{};
-        render_tile_samples(context, camera, params, size, tile, sums);
-        auto tile_width = tile.x1 - tile.x0;
-        for (auto j = tile.y0; j < tile.y1; j++)
-          for (auto i = tile.x0; i < tile.x1; i++)
-            accumulated[(size_t)j * size.x + i] =
-                sums[(size_t)(j - tile.y0) * tile_width + (i - tile.x0)];
-      });
-  if (!finished) return false;
-  image = average_samples(accumulated, size.x, size.y, params.samples);
-  return true;
-}
-
 // -----------------------------------------------------------------------------
-// PROGRESSIVE
+// PROGRESSIVE AND WHOLE IMAGES
 // -----------------------------------------------------------------------------
 
 render_state make_render_state(
     const render_context& context, const trace_params& params) {
   validate_params(params);
-  return make_state(params_camera(context, params), params);
+  return make_render_state(context, params, params_camera(context, params));
 }
 
 render_state make_render_state(const render_context& context,
     const trace_params& params, const camera_data& camera) {
   (void)context;
   validate_params(params);
-  return make_state(camera, params);
+  auto state   = render_state{};
+  state.params = params;
+  state.camera = camera;
+  auto size    = camera_resolution(camera, params.resolution);
+  state.width  = size.x;
+  state.height = size.y;
+  state.buffer =
+      make_render_buffer({0, size.x, 0, size.y}, size.x, params.seed);
+  return state;
 }
 
 bool render_step(const render_context& context, render_state& state,
     int samples, const render_callbacks& callbacks) {
-  auto& params   = state.params;
-  auto  first    = state.samples;
-  auto  counted  = std::max(0, samples);
-  auto  finished = for_each_tile(
-       state.width, state.height, callbacks, [&](const render_tile_rect& tile) {
-        for (auto j = tile.y0; j < tile.y1; j++) {
-          for (auto i = tile.x0; i < tile.x1; i++) {
-            auto idx = (size_t)j * state.width + i;
-            trace_pixel_samples(context.scene, context.accel, context.lights,
-                 state.camera, params, i, j, state.width, state.height, first,
-                 counted, state.accumulated[idx], state.rngs[idx],
-                 state.evaluations[idx]);
-          }
-        }
-      });
-  if (!finished) return false;
-  state.samples += counted;
+  auto count = std::max(0, samples);
+  if (!render_samples(context, state.params, state.camera, state.samples,
+          state.samples + count, state.buffer, callbacks))
+    return false;
+  state.samples += count;
   return true;
 }
 
 image_data get_image(const render_state& state) {
-  return average_samples(
-      state.accumulated, state.width, state.height, state.samples);
+  return average_samples(state.buffer, state.samples);
+}
+
+bool render_image(const render_context& context, const trace_params& params,
+    image_data& image, const render_callbacks& callbacks) {
+  auto state = make_render_state(context, params);
+  if (!render_step(context, state, params.samples, callbacks)) return false;
+  image = get_image(state);
+  return true;
 }
 
 }  // namespace implicit

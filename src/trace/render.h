@@ -8,11 +8,17 @@
 // CLI, the viewer, the Python module and MPI ranks only parse, display and
 // write.
 //
+// One render loop: render_pixels() adds samples [s0, s1) of one camera to a
+// rectangle of pixels held in a render_buffer. Progressive steps (viewer,
+// Python), whole images, tiles and sample batches of MPI ranks and frames of
+// sequences all call it, through render_samples() when in parallel.
+//
 // Determinism: every pixel has its own random stream (derived from its
 // index) and sums its samples 0, 1, 2, ... in that order into one vec4f, then
-// the sum is multiplied by 1 / samples. So an image rendered pass by pass, as
-// a whole, or tile by tile in any order and tile size (render_tile(), one
-// rank per tile) is the same to the byte, at any thread count.
+// the sum is multiplied by 1 / samples (average_samples()). So an image
+// rendered pass by pass, as a whole, or tile by tile in any order, tile size
+// and sample ranges (one rank per tile) is the same to the byte, at any
+// thread count.
 #pragma once
 
 #include <cstdint>
@@ -62,33 +68,59 @@ trace_params resolve_params(const render_context& context,
 vec2i render_size(const render_context& context, const trace_params& params);
 
 // -----------------------------------------------------------------------------
-// TILES (MPI ranks)
+// BUFFERS
 // -----------------------------------------------------------------------------
 
-// Columns [x0, x1) and rows [y0, y1) of the image.
-struct render_tile_rect {
+// Columns [x0, x1) and rows [y0, y1) of an image.
+struct render_rect {
   int x0 = 0, x1 = 0, y0 = 0, y1 = 0;
 };
 
-// Render samples [0, params.samples) of every pixel of `tile`, summed in
-// sample order into `accumulated` (row-major over the tile, resized to its
-// pixel count). Single-threaded: callers parallelise over tiles.
-void render_tile(const render_context& context, const trace_params& params,
-    const render_tile_rect& tile, std::vector<vec4f>& accumulated);
+// Pixels in a rectangle.
+inline size_t rect_pixels(const render_rect& rect) {
+  return (size_t)(rect.x1 - rect.x0) * (size_t)(rect.y1 - rect.y0);
+}
 
-// The image of `samples` accumulated samples per pixel (width * height
-// sums, row-major), divided as every front end divides: average_samples().
-image_data average_samples(
-    const std::vector<vec4f>& accumulated, int width, int height, int samples);
+// What a render keeps per pixel for the pixels of `rect` (a whole image or
+// a tile), each array row-major over the rectangle. render_pixels() is the
+// one writer: per-pixel data a render adds (sample counts, AOVs, statistics)
+// is one more array here, filled there.
+struct render_buffer {
+  render_rect            rect        = {};
+  std::vector<vec4f>     sums        = {};  // summed samples (RGB, coverage)
+  std::vector<rng_state> rngs        = {};  // each pixel's random stream
+  std::vector<int64_t>   evaluations = {};  // SDF evaluations spent
+};
+
+// The random stream of pixel `index` (row-major in the image): the stream id
+// is the index, so no two pixels of any image share a stream.
+rng_state make_pixel_rng(uint64_t seed, size_t index);
+
+// A buffer for `rect` of an image `width` pixels wide: zero sums and counts,
+// each pixel's own stream.
+render_buffer make_render_buffer(
+    const render_rect& rect, int width, uint64_t seed);
+
+// The one render loop: add samples [s0, s1) of `camera` to every pixel of
+// `rect` (within buffer.rect), each pixel's samples in order. The image size
+// is the camera's at params.resolution. Single-threaded; parameters are not
+// validated (render_samples() and the functions below do that).
+void render_pixels(const render_context& context, const trace_params& params,
+    const camera_data& camera, const render_rect& rect, int s0, int s1,
+    render_buffer& buffer);
+
+// The image of a buffer whose pixels hold `samples` summed samples each:
+// sum * (1 / samples), the one division of every render path.
+image_data average_samples(const render_buffer& buffer, int samples);
 
 // -----------------------------------------------------------------------------
-// WHOLE IMAGES (CLI, Python)
+// PARALLEL RENDERS
 // -----------------------------------------------------------------------------
 
-// Called once per finished tile with the pixels done so far and the total,
-// from any thread but never two at once.
+// Called once per finished block of pixels with the pixel samples done so
+// far and the total, from any thread but never two at once.
 using render_progress = void (*)(void* user, int64_t done, int64_t total);
-// Asked before each tile; true stops the render.
+// Asked before each block; true stops the render.
 using render_cancel = bool (*)(void* user);
 
 struct render_callbacks {
@@ -97,19 +129,34 @@ struct render_callbacks {
   void*           user     = nullptr;
 };
 
-// Render the whole image, tiles in parallel (each with all its samples).
-// Returns false, leaving `image` untouched, when cancelled.
-bool render_image(const render_context& context, const trace_params& params,
-    image_data& image, const render_callbacks& callbacks = {});
+// Most samples per pixel in one pass of render_samples(): a block must stay
+// short for a cancel to take effect soon, and a pixel's samples in a row find
+// in cache what the previous one read.
+inline constexpr int max_pass_samples = 64;
+
+// Add samples [s0, s1) to every pixel of the buffer with all threads: passes
+// of at most max_pass_samples, each render_pixels() over blocks of pixels in
+// parallel, asking callbacks.cancel before each block. Returns false when
+// cancelled: the buffer then holds part of a pass and must be discarded.
+// Throws io_error for invalid parameters.
+bool render_samples(const render_context& context, const trace_params& params,
+    const camera_data& camera, int s0, int s1, render_buffer& buffer,
+    const render_callbacks& callbacks = {});
 
 // -----------------------------------------------------------------------------
-// PROGRESSIVE (CLI batches, viewer, Python)
+// PROGRESSIVE (viewer, Python) AND WHOLE IMAGES
 // -----------------------------------------------------------------------------
 
-// Samples accumulated so far, for one camera and one set of parameters
-// (trace.h's trace_state: the parameters, the camera, the sums, the per-pixel
-// streams and SDF evaluation counts).
-using render_state = trace_state;
+// Samples accumulated so far in every pixel of an image, for one camera and
+// one set of parameters.
+struct render_state {
+  trace_params  params  = {};
+  camera_data   camera  = {};
+  int           width   = 0;
+  int           height  = 0;
+  int           samples = 0;   // in every pixel
+  render_buffer buffer  = {};  // the whole image
+};
 
 // A state for the parameters' camera, or for `camera` (the viewer's).
 render_state make_render_state(
@@ -117,13 +164,17 @@ render_state make_render_state(
 render_state make_render_state(const render_context& context,
     const trace_params& params, const camera_data& camera);
 
-// Add `samples` samples to every pixel (in parallel over tiles), asking
-// callbacks.cancel before each tile. Returns false when cancelled: the
-// state then holds a partial pass and must be discarded.
+// Add `samples` samples to every pixel (render_samples()). Returns false
+// when cancelled: the state then holds a partial pass and must be discarded.
 bool render_step(const render_context& context, render_state& state,
     int samples = 1, const render_callbacks& callbacks = {});
 
 // The average so far (linear RGBA, alpha = coverage).
 image_data get_image(const render_state& state);
+
+// Render the whole image: params.samples samples per pixel in one
+// render_step(). Returns false, leaving `image` untouched, when cancelled.
+bool render_image(const render_context& context, const trace_params& params,
+    image_data& image, const render_callbacks& callbacks = {});
 
 }  // namespace implicit

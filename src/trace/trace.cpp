@@ -2,9 +2,6 @@
 
 #include "trace.h"
 
-#include <tbb/blocked_range2d.h>
-#include <tbb/parallel_for.h>
-
 #include <array>
 
 #include "../math/sampling.h"
@@ -526,54 +523,30 @@ bool is_lit_shader(shader_type shader) {
 }
 
 // -----------------------------------------------------------------------------
-// RENDERING
+// SAMPLES
 // -----------------------------------------------------------------------------
-
-trace_state make_state(const scene_data& scene, const trace_params& params) {
-  return make_state(scene.cameras.at(params.camera), params);
-}
-
-trace_state make_state(const camera_data& camera, const trace_params& params) {
-  auto state   = trace_state{};
-  state.params = params;
-  state.camera = camera;
-  auto size    = camera_resolution(camera, params.resolution);
-  state.width  = size.x;
-  state.height = size.y;
-  auto count   = (size_t)state.width * state.height;
-  state.accumulated.assign(count, {0, 0, 0, 0});
-  state.evaluations.assign(count, 0);
-  state.rngs.resize(count);
-  for (size_t idx = 0; idx < count; idx++)
-    state.rngs[idx] = make_pixel_rng(params.seed, idx);
-  return state;
-}
-
-rng_state make_pixel_rng(uint64_t seed, size_t index) {
-  return make_rng(seed, (uint64_t)index);
-}
 
 // Offset inside a pixel for a tent filter of width 2 pixels (Yocto/GL).
 static float tent_offset(float r) {
   return r < 0.5f ? std::sqrt(2 * r) - 1 : 1 - std::sqrt(2 - 2 * r);
 }
 
-// Sample `sample` of pixel (i, j).
-static vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
+vec4f trace_sample(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const camera_data& camera,
-    const trace_params& params, int i, int j, int width, int height, int sample,
+    const trace_params& params, vec2i ij, vec2i size, int sample,
     rng_state& rng, int64_t& evaluations) {
+  auto [i, j]  = ij;
   auto sampler = path_sampler{params.sampler, {}, &rng};
   if (params.sampler == sampler_type::sobol) {
     auto seed =
         hash_uint32((uint32_t)params.seed ^ (uint32_t)(params.seed >> 32));
     sampler.sobol = make_sobol(
-        hash_combine(seed, (uint32_t)(j * width + i)), (uint32_t)sample);
+        hash_combine(seed, (uint32_t)(j * size.x + i)), (uint32_t)sample);
   }
   auto puv = next2f(sampler);
   if (params.tentfilter)
     puv = vec2f{tent_offset(puv.x), tent_offset(puv.y)} + vec2f{0.5f, 0.5f};
-  auto uv = vec2f{(i + puv.x) / width, (j + puv.y) / height};
+  auto uv = vec2f{(i + puv.x) / size.x, (j + puv.y) / size.y};
   // The lens sample is drawn only for cameras that use it (pinholes skip
   // the warp, as it costs a sizeable part of a camera ray).
   auto lens  = camera.aperture > 0 ? sample_disk(next2f(sampler)) : vec2f{0, 0};
@@ -591,56 +564,6 @@ static vec4f trace_pixel(const scene_data& scene, const accel_data& accel,
       !scene.environments.empty())
     alpha = 1;
   return {rgb.x, rgb.y, rgb.z, alpha};
-}
-
-void trace_pixel_samples(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, const camera_data& camera,
-    const trace_params& params, int i, int j, int width, int height, int first,
-    int count, vec4f& accumulated, rng_state& rng, int64_t& evaluations) {
-  for (auto sample = first; sample < first + count; sample++)
-    accumulated += trace_pixel(scene, accel, lights, camera, params, i, j,
-        width, height, sample, rng, evaluations);
-}
-
-vec4f average_samples(vec4f accumulated, int samples) {
-  return samples > 0 ? accumulated * (1.0f / samples) : vec4f{0, 0, 0, 0};
-}
-
-void trace_tile(trace_state& state, const scene_data& scene,
-    const accel_data& accel, const lights_data& lights,
-    const trace_params& params, int i0, int i1, int j0, int j1) {
-  for (auto j = j0; j < j1; j++) {
-    for (auto i = i0; i < i1; i++) {
-      auto idx = (size_t)j * state.width + i;
-      trace_pixel_samples(scene, accel, lights, state.camera, params, i, j,
-          state.width, state.height, state.samples, 1, state.accumulated[idx],
-          state.rngs[idx], state.evaluations[idx]);
-    }
-  }
-}
-
-void trace_samples(trace_state& state, const scene_data& scene,
-    const accel_data& accel, const lights_data& lights,
-    const trace_params& params) {
-  trace_samples_until(
-      state, scene, accel, lights, params, [] { return false; });
-}
-
-image_data get_render(const trace_state& state) {
-  auto image = make_image(state.width, state.height);
-  if (state.samples == 0) return image;
-  for (size_t idx = 0; idx < image.pixels.size(); idx++)
-    image.pixels[idx] = average_samples(state.accumulated[idx], state.samples);
-  return image;
-}
-
-image_data trace_image(const scene_data& scene, const trace_params& params) {
-  auto accel  = make_accel(scene, params.accel);
-  auto lights = make_lights(scene, accel);
-  auto state  = make_state(scene, params);
-  for (auto sample = 0; sample < params.samples; sample++)
-    trace_samples(state, scene, accel, lights, params);
-  return get_render(state);
 }
 
 }  // namespace implicit

@@ -1,15 +1,12 @@
-// # implicit: rendering
+// # implicit: path tracing and shaders
 //
-// Render parameters, the progressive render state and the shaders. The data
-// flow is: scene_data -> make_accel() + make_lights() -> make_state() ->
-// trace_samples() (one sample per pixel per call) -> get_render(). The CLI
-// and the viewer drive the same functions.
+// The render parameters and one sample of one pixel: a camera ray, then the
+// path tracer (`implicit`) or a debug shader. Nothing here loops over pixels
+// or samples: the render core (render.h) does, in one place, for every front
+// end. The data flow is: scene_data -> make_accel() + make_lights() (in a
+// render_context) -> trace_sample() per pixel and sample.
 #pragma once
 
-#include <tbb/blocked_range2d.h>
-#include <tbb/parallel_for.h>
-
-#include <atomic>
 #include <string>
 #include <vector>
 
@@ -66,81 +63,19 @@ struct trace_params {
 };
 
 // -----------------------------------------------------------------------------
-// STATE
+// SAMPLES
 // -----------------------------------------------------------------------------
 
-// Accumulated samples and per-pixel random streams, for one camera.
-struct trace_state {
-  trace_params           params      = {};
-  camera_data            camera      = {};
-  int                    width       = 0;
-  int                    height      = 0;
-  int                    samples     = 0;
-  std::vector<vec4f>     accumulated = {};
-  std::vector<rng_state> rngs        = {};
-  std::vector<int64_t>   evaluations = {};  // SDF evaluations per pixel
-};
-
-// Size the state for the camera and resolution and seed the generators.
-trace_state make_state(const scene_data& scene, const trace_params& params);
-trace_state make_state(const camera_data& camera, const trace_params& params);
-
-// The random stream of pixel `index` (row-major): the stream id is the index,
-// so no two pixels of any image share a stream.
-rng_state make_pixel_rng(uint64_t seed, size_t index);
-
-// Add one sample to the pixels of columns [i0, i1) and rows [j0, j1).
-void trace_tile(trace_state& state, const scene_data& scene,
-    const accel_data& accel, const lights_data& lights,
-    const trace_params& params, int i0, int i1, int j0, int j1);
-
-// Add one sample to every pixel (parallel over tiles; the result does not
-// depend on the thread count).
-void trace_samples(trace_state& state, const scene_data& scene,
-    const accel_data& accel, const lights_data& lights,
-    const trace_params& params);
-
-// The same, asking `cancelled()` before each 16x16 tile (the viewer restarts
-// renders this way). Returns false when it stopped early: the state then
-// holds a partial pass and must be discarded.
-template <typename Cancelled>
-inline bool trace_samples_until(trace_state& state, const scene_data& scene,
-    const accel_data& accel, const lights_data& lights,
-    const trace_params& params, const Cancelled& cancelled) {
-  auto stopped = std::atomic<bool>{false};
-  auto range =
-      tbb::blocked_range2d<int>(0, state.height, 16, 0, state.width, 16);
-  tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& tile) {
-    if (stopped.load(std::memory_order_relaxed) || cancelled()) {
-      stopped.store(true, std::memory_order_relaxed);
-      return;
-    }
-    trace_tile(state, scene, accel, lights, params, tile.cols().begin(),
-        tile.cols().end(), tile.rows().begin(), tile.rows().end());
-  });
-  if (stopped.load()) return false;
-  state.samples += 1;
-  return true;
-}
-
-// Average of the samples so far (linear RGBA, alpha = coverage).
-image_data get_render(const trace_state& state);
-
-// Render a whole image in one call: accel, lights, state, params.samples
-// passes (for tests, benchmarks and programs that need no progress).
-image_data trace_image(const scene_data& scene, const trace_params& params);
-
-// Add samples [first, first + count) of pixel (i, j), in sample order, to
-// `accumulated`; `rng` is the pixel's stream for the random sampler. The one
-// pixel loop of every render path (so they agree to the byte).
-void trace_pixel_samples(const scene_data& scene, const accel_data& accel,
+// Sample `sample` of pixel `ij` of an image of `size` pixels seen by
+// `camera`: linear RGB (clamped, non-finite values as 0) and coverage.
+// `rng` is the pixel's random stream (the random sampler draws from it; the
+// Sobol sampler derives its points from the seed, the pixel and `sample`);
+// `evaluations` counts the SDF evaluations spent. Thread-safe; allocates
+// nothing. The render core (render.h) sums these over pixels and samples.
+vec4f trace_sample(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const camera_data& camera,
-    const trace_params& params, int i, int j, int width, int height, int first,
-    int count, vec4f& accumulated, rng_state& rng, int64_t& evaluations);
-
-// The average of `samples` summed samples (sum * (1 / samples)): the one
-// division of every render path.
-vec4f average_samples(vec4f accumulated, int samples);
+    const trace_params& params, vec2i ij, vec2i size, int sample,
+    rng_state& rng, int64_t& evaluations);
 
 // Whether the shader needs lights (and falls back to eyelight without).
 bool is_lit_shader(shader_type shader);

@@ -1,12 +1,24 @@
 // Tests for the renderer: furnace, MIS on/off agreement, determinism across
 // thread counts, no NaN, scenes without lights.
 
-#include "trace.h"
+#include "render.h"
 
 #include <doctest/doctest.h>
 #include <tbb/global_control.h>
 
+#include <cstring>
+
 using namespace implicit;
+
+// Render a scene made in memory through the render core, as every front end
+// does.
+static image_data render_scene(scene_data scene, const trace_params& params,
+    const accel_params& build = {}) {
+  auto context = make_render_context(std::move(scene), params, build);
+  auto image   = image_data{};
+  render_image(*context, params, image);
+  return image;
+}
 
 static sdf_function_data make_function(
     sdf_node node, vec3f origin, int material) {
@@ -63,7 +75,7 @@ TEST_CASE("trace: furnace, white matte sphere converges to 1") {
   params.envhidden  = true;
   for (auto mis : {true, false}) {
     params.implicit_mis = mis;
-    auto image          = trace_image(scene, params);
+    auto image          = render_scene(scene, params);
     auto count          = 0;
     auto mean           = covered_mean(image, count);
     CHECK(count > 100);
@@ -104,9 +116,9 @@ TEST_CASE("trace: MIS on and off converge to the same mean") {
   params.clamp        = 1e6f;  // no clamping bias
   params.implicit_mis = true;
   auto count          = 0;
-  auto with           = covered_mean(trace_image(scene, params), count);
+  auto with           = covered_mean(render_scene(scene, params), count);
   params.implicit_mis = false;
-  auto without        = covered_mean(trace_image(scene, params), count);
+  auto without        = covered_mean(render_scene(scene, params), count);
   CHECK(with.x > 0.05f);
   CHECK(without.x == doctest::Approx(with.x).epsilon(0.05).scale(0));
 }
@@ -120,15 +132,13 @@ TEST_CASE("trace: same image whatever the thread count") {
   {
     auto control =
         tbb::global_control(tbb::global_control::max_allowed_parallelism, 1);
-    one = trace_image(scene, params);
+    one = render_scene(scene, params);
   }
-  auto two = trace_image(scene, params);
+  auto two = render_scene(scene, params);
   REQUIRE(one.pixels.size() == two.pixels.size());
-  auto same = true;
-  for (size_t i = 0; i < one.pixels.size(); i++)
-    same = same && one.pixels[i].x == two.pixels[i].x &&
-           one.pixels[i].w == two.pixels[i].w;
-  CHECK(same);
+  // Every byte of every channel.
+  CHECK(std::memcmp(one.pixels.data(), two.pixels.data(),
+            one.pixels.size() * sizeof(vec4f)) == 0);
 }
 
 TEST_CASE("trace: scenes without lights or objects render without NaN") {
@@ -137,11 +147,11 @@ TEST_CASE("trace: scenes without lights or objects render without NaN") {
   auto params       = trace_params{};
   params.resolution = 16;
   params.samples    = 2;
-  auto image        = trace_image(scene, params);
+  auto image        = render_scene(scene, params);
   for (auto& p : image.pixels) CHECK(isfinite(xyz(p)));
   // No objects at all.
   scene.sdfunctions.clear();
-  image = trace_image(scene, params);
+  image = render_scene(scene, params);
   for (auto& p : image.pixels) CHECK(p.w == 0);
 }
 
@@ -151,7 +161,7 @@ TEST_CASE("trace: implicit_normal colours and alpha") {
   params.resolution = 33;
   params.samples    = 1;
   params.shader     = shader_type::implicit_normal;
-  auto image        = trace_image(scene, params);
+  auto image        = render_scene(scene, params);
   // Centre pixel sees the sphere's +z pole: colour (0.5, 0.5, 1), up to
   // where the one jittered sample lands in the pixel (|n.x| < 0.06).
   auto centre = pixel(image, 16, 16);
@@ -170,7 +180,7 @@ TEST_CASE("trace: a one-bounce path still covers what it hits") {
   params.samples    = 1;
   params.bounces    = 1;
   params.envhidden  = true;
-  auto image        = trace_image(scene, params);
+  auto image        = render_scene(scene, params);
   CHECK(pixel(image, 16, 16).w == 1);
   CHECK(pixel(image, 0, 0).w == 0);
 }
@@ -202,7 +212,7 @@ TEST_CASE("trace: furnace per material stays at or below 1") {
       params.bounces    = 16;
       params.envhidden  = true;
       params.mis        = mis;
-      auto image        = trace_image(scene, params);
+      auto image        = render_scene(scene, params);
       auto count        = 0;
       auto mean         = covered_mean(image, count);
       INFO("material ", material_type_names[(int)c.type], " mis ", (int)mis);
@@ -226,7 +236,7 @@ static void check_mis_means(const scene_data& scene, int bounces) {
     params.implicit_mis = mode != 2;
     params.mis = mode == 1 ? mis_type::two_sample : mis_type::one_sample;
     auto count = 0;
-    means.push_back(covered_mean(trace_image(scene, params), count).x);
+    means.push_back(covered_mean(render_scene(scene, params), count).x);
   }
   CHECK(means[0] > 0.05f);
   CHECK(means[1] == doctest::Approx(means[0]).epsilon(0.03).scale(0));
@@ -294,10 +304,10 @@ TEST_CASE("trace: absorbing glass is darker than clear glass") {
   params.bounces             = 16;
   params.envhidden           = true;
   auto count                 = 0;
-  auto clear                 = covered_mean(trace_image(scene, params), count);
+  auto clear                 = covered_mean(render_scene(scene, params), count);
   scene.materials[0].color   = {0.2f, 0.5f, 1.0f};
   scene.materials[0].trdepth = 0.5f;
-  auto tinted                = covered_mean(trace_image(scene, params), count);
+  auto tinted                = covered_mean(render_scene(scene, params), count);
   CHECK(tinted.x < 0.5f * clear.x);
   CHECK(tinted.z > 0.95f * clear.z);  // no absorption in blue
   // A scattering medium with white albedo conserves energy.
@@ -306,7 +316,7 @@ TEST_CASE("trace: absorbing glass is darker than clear glass") {
   scene.materials[0].scattering = {1, 1, 1};
   scene.materials[0].trdepth    = 0.2f;
   params.bounces                = 64;
-  auto fog = covered_mean(trace_image(scene, params), count);
+  auto fog = covered_mean(render_scene(scene, params), count);
   CHECK(fog.y <= 1.02f);
 }
 
@@ -318,7 +328,7 @@ TEST_CASE("trace: debug shaders") {
   params.samples           = 1;
   auto centre              = [&](shader_type shader) {
     params.shader = shader;
-    return pixel(trace_image(scene, params), 16, 16);
+    return pixel(render_scene(scene, params), 16, 16);
   };
   auto position = centre(shader_type::position);
   CHECK(position.z == doctest::Approx(1.0f).epsilon(0.01));
@@ -331,7 +341,7 @@ TEST_CASE("trace: debug shaders") {
   CHECK(eyelight.z == doctest::Approx(0.75f).epsilon(0.02).scale(0));
   // Steps: a heat map over every pixel, hit or not.
   params.shader = shader_type::steps;
-  auto image    = trace_image(scene, params);
+  auto image    = render_scene(scene, params);
   for (auto& p : image.pixels) {
     CHECK(p.w == 1);
     CHECK(isfinite(xyz(p)));
