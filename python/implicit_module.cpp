@@ -25,7 +25,6 @@
 
 #include <atomic>
 #include <chrono>
-#include <climits>
 #include <cmath>
 #include <condition_variable>
 #include <cstdint>
@@ -45,6 +44,7 @@
 #include "sdf/sdf_mesh_io.h"
 #include "sdf/sdf_program.h"
 #include "trace/render.h"
+#include "trace/render_options.h"
 #include "util/error.h"
 
 namespace py = pybind11;
@@ -162,146 +162,114 @@ std::shared_ptr<const render_context> context_for(
 // RENDER OPTIONS
 // -----------------------------------------------------------------------------
 
-// What a render call asks for: the CLI's options, under the CLI's names.
-struct render_options {
-  trace_params params  = {};
-  std::string  camera  = "";
-  int          threads = 0;
-};
+// The options Python takes: the table's rows for render() (not the output
+// stage: save_image() takes exposure and filmic).
+std::vector<const render_option*> python_render_options() {
+  auto options = std::vector<const render_option*>{};
+  for (auto& option : render_option_table())
+    if (option.python) options.push_back(&option);
+  return options;
+}
 
-// The option names, for messages and the Python layer's documentation.
-const std::vector<std::string> render_option_names = {"shader", "camera",
-    "resolution", "samples", "bounces", "clamp", "seed", "envhidden",
-    "tentfilter", "noimplicitmis", "mis", "sampler", "stmaxiter", "accel",
-    "threads"};
-
-std::string join_names(const std::vector<std::string>& names) {
+std::string join_names(const std::vector<const render_option*>& options) {
   auto text = std::string{};
-  for (auto& name : names) text += (text.empty() ? "" : ", ") + name;
+  for (auto option : options) text += (text.empty() ? "" : ", ") + option->name;
   return text;
 }
 
-// An integer option in [lo, hi]: the C int range for values the library
-// checks, the CLI's range for front-end options (threads).
-int read_int_option(
-    const std::string& key, const py::handle& value, int lo, int hi) {
-  if (py::isinstance<py::bool_>(value) || !py::isinstance<py::int_>(value))
-    throw py::type_error(
-        key + ": expected an integer, found " +
-        std::string{py::str(value.get_type().attr("__name__"))});
-  auto number = py::reinterpret_borrow<py::int_>(value);
-  if (number < py::int_(lo) || number > py::int_(hi))
-    throw py::value_error(key + ": must be in [" + std::to_string(lo) + ", " +
-                          std::to_string(hi) + "], found " +
-                          std::string{py::str(number)});
-  return number.cast<int>();
+// The name of a Python value's type, for messages.
+std::string type_name(const py::handle& value) {
+  return py::str(value.get_type().attr("__name__"));
 }
 
-// An option the library checks: any C int.
-int read_int_option(const std::string& key, const py::handle& value) {
-  return read_int_option(key, value, INT_MIN, INT_MAX);
-}
-
-std::string read_string_option(const std::string& key, py::handle value) {
-  if (!py::isinstance<py::str>(value))
-    throw py::type_error(key + ": expected a string");
-  return value.cast<std::string>();
-}
-
-bool read_bool_option(const std::string& key, py::handle value) {
-  if (!py::isinstance<py::bool_>(value))
-    throw py::type_error(key + ": expected True or False");
-  return value.cast<bool>();
-}
-
-// A name from a names table, as the CLI's parse_enum.
-template <typename T>
-T read_enum_option(const std::string& key, py::handle value,
-    const std::vector<std::string>& names) {
-  auto name = read_string_option(key, value);
-  for (auto i = 0; i < (int)names.size(); i++)
-    if (names[i] == name) return (T)i;
-  throw py::value_error(key + ": unknown value \"" + name +
-                        "\" (valid: " + join_names(names) + ")");
+// A Python value as the table's text for `option`: TypeError when Python
+// passed the wrong kind of value (an integer option takes an int, not a
+// bool or a float; a number an int or a float; a flag a bool; a name a str;
+// the camera also None). The range is the table's to check.
+std::string option_text(const render_option& option, const py::handle& value) {
+  auto is_bool  = py::isinstance<py::bool_>(value);
+  auto is_int   = !is_bool && py::isinstance<py::int_>(value);
+  auto expected = std::string{};
+  switch (option.type) {
+    case render_option_type::integer:
+    case render_option_type::seed:
+      if (is_int) return py::str(value);
+      expected = "an integer";
+      break;
+    case render_option_type::number:
+      if (is_int) return py::str(value);  // exact; huge ones out of range
+      if (py::isinstance<py::float_>(value)) return py::repr(value);
+      expected = "a number";
+      break;
+    case render_option_type::flag:
+      if (is_bool) return value.cast<bool>() ? "true" : "false";
+      expected = "True or False";
+      break;
+    case render_option_type::choice:
+    case render_option_type::text:
+      if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+      if (option.type == render_option_type::text && value.is_none()) return "";
+      expected = "a string";
+      break;
+  }
+  throw py::type_error(
+      option.name + ": expected " + expected + ", found " + type_name(value));
 }
 
 // Options from keyword arguments; absent ones keep the library's defaults.
-render_options read_render_options(const py::kwargs& kwargs) {
-  auto  options = render_options{};
-  auto& p       = options.params;
+// Values out of range or unknown names raise ValueError with the table's
+// message.
+render_settings read_render_options(const py::kwargs& kwargs) {
+  auto settings = render_settings{};
+  auto options  = python_render_options();
   for (auto item : kwargs) {
-    auto key   = item.first.cast<std::string>();
-    auto value = item.second;
-    if (key == "shader") {
-      p.shader = read_enum_option<shader_type>(key, value, shader_type_names);
-    } else if (key == "camera") {
-      options.camera = value.is_none() ? "" : read_string_option(key, value);
-    } else if (key == "resolution") {
-      p.resolution = read_int_option(key, value);
-    } else if (key == "samples") {
-      p.samples = read_int_option(key, value);
-    } else if (key == "bounces") {
-      p.bounces = read_int_option(key, value);
-    } else if (key == "clamp") {
-      if (py::isinstance<py::bool_>(value) ||
-          !(py::isinstance<py::float_>(value) ||
-              py::isinstance<py::int_>(value)))
-        throw py::type_error("clamp: expected a number");
-      // Range and finiteness: validate_params().
-      p.clamp = (float)value.cast<double>();
-    } else if (key == "seed") {
-      if (py::isinstance<py::bool_>(value) || !py::isinstance<py::int_>(value))
-        throw py::type_error("seed: expected an integer");
-      auto seed = py::reinterpret_borrow<py::int_>(value);
-      if (seed < py::int_(0) || seed > py::int_(UINT64_MAX))
-        throw py::value_error("seed: must be in [0, 2**64 - 1], found " +
-                              std::string{py::str(seed)});
-      p.seed = seed.cast<uint64_t>();
-    } else if (key == "envhidden") {
-      p.envhidden = read_bool_option(key, value);
-    } else if (key == "tentfilter") {
-      p.tentfilter = read_bool_option(key, value);
-    } else if (key == "noimplicitmis") {
-      p.implicit_mis = !read_bool_option(key, value);
-    } else if (key == "mis") {
-      p.mis = read_enum_option<mis_type>(key, value, mis_type_names);
-    } else if (key == "sampler") {
-      p.sampler =
-          read_enum_option<sampler_type>(key, value, sampler_type_names);
-    } else if (key == "stmaxiter") {
-      p.march.max_iterations = read_int_option(key, value);
-    } else if (key == "accel") {
-      p.accel = read_enum_option<accel_type>(key, value, accel_type_names);
-    } else if (key == "threads") {
-      options.threads = read_int_option(key, value, 0, 4096);
-    } else {
-      throw py::type_error("unknown render option '" + key + "' (options: " +
-                           join_names(render_option_names) + ")");
-    }
+    auto key    = item.first.cast<std::string>();
+    auto option = find_render_option(key);
+    if (!option || !option->python)
+      throw py::type_error("unknown render option '" + key +
+                           "' (options: " + join_names(options) + ")");
+    try {
+      set_render_option(settings, *option, option_text(*option, item.second));
+    } catch (const io_error& error) { throw py::value_error(error.what()); }
   }
-  return options;
+  return settings;
+}
+
+// A default value as the Python value of its type.
+py::object option_value(const render_option& option, const std::string& text) {
+  switch (option.type) {
+    case render_option_type::integer:
+    case render_option_type::seed: return py::int_(py::str(text));
+    case render_option_type::number: return py::float_(std::stod(text));
+    case render_option_type::flag: return py::bool_(text == "true");
+    case render_option_type::choice: return py::str(text);
+    case render_option_type::text:
+      return text.empty() ? py::object(py::none()) : py::str(text);
+  }
+  return py::none();
 }
 
 // The defaults, as a dict of option -> value (the library's trace_params).
 py::dict default_render_options() {
-  auto p                   = trace_params{};
-  auto options             = py::dict{};
-  options["shader"]        = shader_type_names[(int)p.shader];
-  options["camera"]        = py::none();
-  options["resolution"]    = p.resolution;
-  options["samples"]       = p.samples;
-  options["bounces"]       = p.bounces;
-  options["clamp"]         = p.clamp;
-  options["seed"]          = p.seed;
-  options["envhidden"]     = p.envhidden;
-  options["tentfilter"]    = p.tentfilter;
-  options["noimplicitmis"] = !p.implicit_mis;
-  options["mis"]           = mis_type_names[(int)p.mis];
-  options["sampler"]       = sampler_type_names[(int)p.sampler];
-  options["stmaxiter"]     = p.march.max_iterations;
-  options["accel"]         = accel_type_names[(int)p.accel];
-  options["threads"]       = 0;
+  auto defaults = render_settings{};
+  auto options  = py::dict{};
+  for (auto option : python_render_options())
+    options[option->name.c_str()] =
+        option_value(*option, get_render_option(defaults, *option));
   return options;
+}
+
+// The table for documentation: name -> (type, default, range or choices,
+// help).
+py::dict render_option_help() {
+  auto defaults = render_settings{};
+  auto help     = py::dict{};
+  for (auto option : python_render_options())
+    help[option->name.c_str()] =
+        py::make_tuple(render_option_type_names[(int)option->type],
+            option_value(*option, get_render_option(defaults, *option)),
+            render_option_domain(*option), option->help);
+  return help;
 }
 
 // -----------------------------------------------------------------------------
@@ -647,7 +615,7 @@ PYBIND11_MODULE(_implicit, m) {
   m.def("render", &render_scene, py::arg("scene"),
       py::arg("progress") = py::none());
   m.def("default_render_options", &default_render_options);
-  m.attr("render_option_names") = render_option_names;
+  m.def("render_option_help", &render_option_help);
   m.attr("shader_names")        = shader_type_names;
   m.attr("material_type_names") = material_type_names;
 

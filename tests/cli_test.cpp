@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -45,7 +46,9 @@ TEST_CASE("cli: bad options and values fail with a one-line reason") {
            std::string{"--shader nope"}, std::string{"--accel fast"},
            std::string{"--clamp -1"}, std::string{"--output out.gif"},
            std::string{"--stmaxiter 0"}, std::string{"--mis three"},
-           std::string{"--sampler halton"}}) {
+           std::string{"--sampler halton"}, std::string{"--seed -1"},
+           std::string{"--samples 4294967297"}, std::string{"--filmic=3"},
+           std::string{"--samples 1e3"}}) {
     auto result = run_ypathtrace(
         "--scene " + example_scene() + " " + args +
         (args.find("--output") == std::string::npos ? " --output " + out : ""));
@@ -59,6 +62,41 @@ TEST_CASE("cli: bad options and values fail with a one-line reason") {
         std::string::npos);  // lists valid names
   auto sampler = run_ypathtrace("--sampler halton");
   CHECK(sampler.output.find("sobol") != std::string::npos);
+}
+
+TEST_CASE("cli: a bad option prints its reason and where to look, not usage") {
+  // Two lines, as git and CMake answer: the usage would scroll the reason
+  // out of sight.
+  for (auto args : {"--bogus", "--samples 0", "--samples abc", "--shader nope",
+           "--clamp nan", "--output out.gif"}) {
+    auto result = run_ypathtrace(args);
+    INFO(args, " -> ", result.output);
+    CHECK(result.status == 2);
+    CHECK(std::count(result.output.begin(), result.output.end(), '\n') == 2);
+    CHECK(result.output.find("\nRun 'ypathtrace --help' for the options.\n") !=
+          std::string::npos);
+    CHECK(result.output.find("Usage") == std::string::npos);
+  }
+  auto samples = run_ypathtrace("--samples 0");
+  CHECK(samples.output.rfind(
+            "ypathtrace: error: --samples: 0 is out of range [1, 1048576]\n",
+            0) == 0);
+  auto text = run_ypathtrace("--samples abc");
+  CHECK(
+      text.output.rfind(
+          "ypathtrace: error: --samples: \"abc\" is not an integer\n", 0) == 0);
+}
+
+TEST_CASE("cli: --help lists the option table with ranges and defaults") {
+  auto help = run_ypathtrace("--help").output;
+  CHECK(help.find("--samples N") != std::string::npos);
+  CHECK(help.find("[1..1048576] (default 512)") != std::string::npos);
+  CHECK(help.find("[implicit|implicit_normal|eyelight|normal|position|color|"
+                  "frontfacing|material|steps] (default implicit)") !=
+        std::string::npos);
+  CHECK(help.find("(default 961748941)") != std::string::npos);
+  CHECK(help.find("--noimplicitmis") != std::string::npos);
+  CHECK(help.find("--pratio") == std::string::npos);  // the viewer's only
 }
 
 TEST_CASE("cli: missing or broken scene fails without output") {

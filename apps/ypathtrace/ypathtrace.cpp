@@ -18,6 +18,7 @@
 #include "image/image_io.h"
 #include "scene/scene_io.h"
 #include "trace/render.h"
+#include "trace/render_options.h"
 #include "util/error.h"
 #include "util/file.h"
 #include "util/progress.h"
@@ -32,19 +33,12 @@ using namespace implicit;
 // -----------------------------------------------------------------------------
 
 struct app_options {
-  std::string  scene         = "scene.json";
-  std::string  output        = "out.png";
-  std::string  camera        = "";
-  std::string  shader        = "implicit";
-  std::string  accel         = "bvh";
-  std::string  mis           = "two";
-  std::string  sampler       = "sobol";
-  trace_params params        = {};
-  bool         noimplicitmis = false;
-  int          threads       = 0;
-  int          savebatch     = 0;
-  bool         interactive   = false;
-  bool         quiet         = false;
+  render_settings render      = {};  // the table's options (render_options.h)
+  std::string     scene       = "scene.json";
+  std::string     output      = "out.png";
+  int             savebatch   = 0;
+  bool            interactive = false;
+  bool            quiet       = false;
   // Viewer automation (tests and screenshots).
   int                frames      = 0;
   std::string        screenshot  = "";
@@ -52,73 +46,54 @@ struct app_options {
   int                orbit_frame = 1;
 };
 
-// Turn a name into an enum value using its names table.
-template <typename T>
-static T parse_enum(const std::string& option, const std::string& value,
-    const std::vector<std::string>& names) {
-  for (auto i = 0; i < (int)names.size(); i++)
-    if (names[i] == value) return (T)i;
-  auto valid = std::string{};
-  for (auto& name : names) valid += (valid.empty() ? "" : ", ") + name;
-  throw CLI::ValidationError(
-      option, "unknown value \"" + value + "\" (valid: " + valid + ")");
+// The placeholder of an option's value in --help.
+static const char* value_name(render_option_type type) {
+  switch (type) {
+    case render_option_type::integer:
+    case render_option_type::seed: return "N";
+    case render_option_type::number: return "X";
+    case render_option_type::flag: return "";
+    case render_option_type::choice:
+    case render_option_type::text: return "NAME";
+  }
+  return "";
+}
+
+// Add one option of the table: its value is parsed and checked by the table
+// as CLI11 reads it, so a bad one fails with the table's message.
+static void add_render_option(
+    CLI::App& app, render_settings& settings, const render_option& option) {
+  auto name = "--" + option.name;
+  auto set  = [&settings, &option](const std::string& value) {
+    try {
+      set_render_option(settings, option, value);
+    } catch (const io_error& error) {
+      throw CLI::ValidationError("--" + std::string{error.what()});
+    }
+  };
+  if (option.type == render_option_type::flag) {
+    app.add_flag_callback(
+           name, [set] { set("true"); }, option.help)
+        ->disable_flag_override();
+    return;
+  }
+  auto help    = option.help;
+  auto domain  = render_option_domain(option);
+  auto current = get_render_option(settings, option);
+  if (!domain.empty()) help += " [" + domain + "]";
+  if (!current.empty()) help += " (default " + current + ")";
+  app.add_option_function<std::string>(name, set, help)
+      ->type_name(value_name(option.type));
 }
 
 static void add_options(CLI::App& app, app_options& opts) {
-  auto& p = opts.params;
   app.add_option("--scene", opts.scene, "Scene file (JSON)")
       ->capture_default_str();
   app.add_option("--output", opts.output,
          "Output image (.png/.jpg tonemapped, .hdr/.exr linear)")
       ->capture_default_str();
-  app.add_option(
-      "--camera", opts.camera, "Camera name (default: as Yocto/GL finds it)");
-  app.add_option("--shader", opts.shader,
-         "Shader: implicit, implicit_normal, eyelight, normal, position, "
-         "color, "
-         "frontfacing, material, steps")
-      ->capture_default_str();
-  app.add_option(
-         "--resolution", p.resolution, "Image size along the longest side")
-      ->check(CLI::Range(1, 16384))
-      ->capture_default_str();
-  app.add_option("--samples", p.samples, "Samples per pixel")
-      ->check(CLI::Range(1, 1 << 20))
-      ->capture_default_str();
-  app.add_option("--bounces", p.bounces, "Maximum path length")
-      ->check(CLI::Range(1, 1024))
-      ->capture_default_str();
-  app.add_option("--clamp", p.clamp, "Clamp sample radiance to this value")
-      ->capture_default_str();
-  app.add_option("--seed", p.seed, "Random seed")->capture_default_str();
-  app.add_option("--exposure", p.exposure, "Exposure in stops (LDR output)")
-      ->capture_default_str();
-  app.add_flag("--filmic", p.filmic, "Filmic tone curve (LDR output)");
-  app.add_flag(
-      "--envhidden", p.envhidden, "Hide the environment behind the scene");
-  app.add_flag(
-      "--tentfilter", p.tentfilter, "Tent pixel filter instead of box");
-  app.add_flag("--noimplicitmis", opts.noimplicitmis,
-      "Disable light sampling (BSDF sampling only)");
-  app.add_option("--mis", opts.mis,
-         "Light sampling: one (the seed's one-sample MIS) or two (two-sample, "
-         "power heuristic)")
-      ->capture_default_str();
-  app.add_option("--sampler", opts.sampler,
-         "Random numbers: sobol (scrambled Sobol points, stratified per "
-         "pixel) or random (independent PCG32 numbers, as Yocto/GL)")
-      ->capture_default_str();
-  app.add_option(
-         "--stmaxiter", p.march.max_iterations, "Sphere-tracing iteration cap")
-      ->check(CLI::Range(1, 1000000))
-      ->capture_default_str();
-  app.add_option("--accel", opts.accel,
-         "Intersection: bvh (objects marched in their own boxes) or none (the "
-         "seed's minimum over all objects)")
-      ->capture_default_str();
-  app.add_option("--threads", opts.threads, "Worker threads (0: all cores)")
-      ->check(CLI::Range(0, 4096))
-      ->capture_default_str();
+  for (auto& option : render_option_table())
+    if (option.cli) add_render_option(app, opts.render, option);
   app.add_option("--savebatch", opts.savebatch,
          "Also save the image every N samples as <output>-s<samples>.<ext>")
       ->check(CLI::Range(0, 1 << 20));
@@ -145,14 +120,6 @@ static void add_options(CLI::App& app, app_options& opts) {
 
 // Check the options that CLI11 cannot check alone.
 static void validate_options(app_options& opts) {
-  auto& p = opts.params;
-  p.shader =
-      parse_enum<shader_type>("--shader", opts.shader, shader_type_names);
-  p.accel = parse_enum<accel_type>("--accel", opts.accel, accel_type_names);
-  p.mis   = parse_enum<mis_type>("--mis", opts.mis, mis_type_names);
-  p.sampler =
-      parse_enum<sampler_type>("--sampler", opts.sampler, sampler_type_names);
-  p.implicit_mis = !opts.noimplicitmis;
   if (!opts.interactive &&
       (opts.frames > 0 || !opts.screenshot.empty() || !opts.orbit.empty()))
     throw CLI::ValidationError(
@@ -162,7 +129,7 @@ static void validate_options(app_options& opts) {
         "--screenshot needs --frames (it saves the last frame)");
   // Ranges and finite values: the render core's one validation.
   try {
-    validate_params(p);
+    validate_params(opts.render.params);
   } catch (const io_error& error) { throw CLI::ValidationError(error.what()); }
   // The output is checked before a render that may take hours.
   auto ext = path_extension(opts.output);
@@ -212,13 +179,13 @@ static void run_interactive(
   auto viewer        = viewer_params{};
   viewer.name        = std::filesystem::path{opts.scene}.filename().string();
   viewer.output      = opts.output;
-  viewer.exposure    = opts.params.exposure;
-  viewer.filmic      = opts.params.filmic;
+  viewer.exposure    = opts.render.params.exposure;
+  viewer.filmic      = opts.render.params.filmic;
   viewer.frames      = opts.frames;
   viewer.screenshot  = opts.screenshot;
   viewer.orbit_frame = opts.orbit_frame;
   if (opts.orbit.size() == 2) viewer.orbit = {opts.orbit[0], opts.orbit[1]};
-  run_viewer(context, opts.params, viewer);
+  run_viewer(context, opts.render.params, viewer);
 #else
   (void)opts, (void)context;
   throw io_error(
@@ -233,13 +200,14 @@ static int run(app_options& opts) {
 #endif
   auto warnings = std::vector<std::string>{};
   auto scene    = load_scene(opts.scene, warnings);
-  auto context  = make_render_context(std::move(scene), opts.params);
-  auto params   = resolve_params(*context, opts.params, opts.camera, warnings);
+  auto context  = make_render_context(std::move(scene), opts.render.params);
+  auto params   = resolve_params(
+        *context, opts.render.params, opts.render.camera, warnings);
   for (auto& warning : warnings)
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
 
   if (opts.interactive) {
-    opts.params = params;
+    opts.render.params = params;
     run_interactive(opts, *context);
     return 0;
   }
@@ -281,10 +249,10 @@ static int run(app_options& opts) {
 }
 
 int main(int argc, char** argv) {
-  auto app =
+  app_options opts;  // not app_options{}: a false GCC 12 -Wmaybe-uninitialized
+  auto        app =
       CLI::App{"Render scenes made of implicit surfaces (SDFs and SDF grids).",
           "ypathtrace"};
-  auto opts = app_options{};
   add_options(app, opts);
   auto dist = distributed_options{};  // mpirun and --turntable
   add_distributed_options(app, dist);
@@ -299,18 +267,21 @@ int main(int argc, char** argv) {
     return 0;
   } catch (const CLI::ParseError& error) {
     if (!is_primary_process()) return 2;  // rank 0 prints it
-    std::fprintf(stderr, "ypathtrace: error: %s\n\n%s", error.what(),
-        app.help().c_str());
+    // The reason and where to look, not the whole usage: a long help text
+    // would scroll the one line that matters out of sight.
+    std::fprintf(stderr,
+        "ypathtrace: error: %s\nRun 'ypathtrace --help' for the options.\n",
+        error.what());
     return 2;
   }
   try {
     auto control = std::unique_ptr<tbb::global_control>{};
-    if (opts.threads > 0)
+    if (opts.render.threads > 0)
       control = std::make_unique<tbb::global_control>(
-          tbb::global_control::max_allowed_parallelism, opts.threads);
+          tbb::global_control::max_allowed_parallelism, opts.render.threads);
     if (needs_distributed(dist)) {
       dist.scene = opts.scene, dist.output = opts.output;
-      dist.camera = opts.camera, dist.params = opts.params;
+      dist.camera = opts.render.camera, dist.params = opts.render.params;
       dist.savebatch = opts.savebatch, dist.quiet = opts.quiet;
       return run_distributed(dist);
     }

@@ -19,7 +19,7 @@ renderer's own C++ code. Library errors raise implicit.Error.
 from . import _implicit
 from ._implicit import Error
 from .render import (Image, LoadedScene, Renderer, default_options,
-                     load_image, load_scene, render, save_image)
+                     load_image, load_scene, option_help, render, save_image)
 from .scene import MATERIAL_TYPES, Scene, lookat
 from .sdf import (ORIGIN, SDF, UP, X, Y, Z, box, box_frame, capped_cone,
                   capped_cylinder, capsule, cylinder, difference, ellipsoid,
@@ -32,7 +32,8 @@ SHADERS = tuple(_implicit.shader_names)
 
 __all__ = [
     "Error", "Image", "LoadedScene", "Renderer", "default_options",
-    "load_image", "load_scene", "render", "save_image", "MATERIAL_TYPES",
+    "load_image", "load_scene", "option_help", "render", "save_image",
+    "MATERIAL_TYPES",
     "Scene", "lookat", "ORIGIN", "SDF", "UP", "X", "Y", "Z", "box",
     "box_frame", "capped_cone", "capped_cylinder", "capsule", "cylinder",
     "difference", "ellipsoid", "from_json", "intersection", "octahedron",

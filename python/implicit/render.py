@@ -22,6 +22,23 @@ def default_options():
     return dict(_implicit.default_render_options())
 
 
+def option_help():
+    """The render options, from the library's option table (the one behind
+    ypathtrace --help and the viewer): name -> (type, default, range or
+    choices, help)."""
+    return dict(_implicit.render_option_help())
+
+
+def _options_doc():
+    """The options section of render()'s and Renderer's docstrings."""
+    lines = ["", "    Options (ypathtrace's, from the library's table):"]
+    for name, (kind, default, domain, text) in option_help().items():
+        where = f", {domain}" if domain and kind != "flag" else ""
+        lines.append(f"      {name} ({kind}{where}; default {default!r}): "
+                     f"{text}")
+    return "\n".join(lines) + "\n"
+
+
 def load_scene(path):
     """Load a scene file (JSON) with its grids and textures. Problems raise
     implicit.Error naming the file, the element and the key."""
@@ -44,14 +61,16 @@ def render(scene, *, progress=None, **options):
     """Render `scene` (a Scene, a loaded scene or a path) and return linear
     RGBA as a float32 array (height, width, 4).
 
-    Options, as ypathtrace's: shader, camera, resolution, samples, bounces,
-    clamp, seed, envhidden, tentfilter, noimplicitmis, mis, sampler,
-    stmaxiter, accel, threads (see default_options()). `progress`, when
+    Options are ypathtrace's, under the same names (listed below and by
+    default_options() and option_help()). `progress`, when
     given, is called as progress(samples_done, samples_total) on the calling
     thread. The GIL is released while tracing; Ctrl-C (or an exception from
     `progress`) stops the render before its next tile and is raised.
     """
     return _implicit.render(_loaded(scene), progress, **options)
+
+
+render.__doc__ += _options_doc()
 
 
 class Image:
@@ -87,7 +106,8 @@ class Image:
 
 class Renderer:
     """A progressive render: `step(n)` adds n samples per pixel, `image`
-    is the average so far. Scene, accelerator and lights are built once."""
+    is the average so far. Scene, accelerator and lights are built once.
+    Options as render()'s."""
 
     def __init__(self, scene, **options):
         self._renderer = _implicit.Renderer(_loaded(scene), **options)

@@ -14,10 +14,12 @@
 #include <imgui.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <vector>
 
 #include "../image/image_io.h"
+#include "../trace/render_options.h"
 #include "../util/error.h"
 #include "navigation.h"
 #include "render_worker.h"
@@ -214,30 +216,80 @@ static std::string camera_label(const viewer_state& state, int index) {
 // PANEL
 // -----------------------------------------------------------------------------
 
-// A combo box over a names table; returns whether the choice changed.
-template <typename T>
-static bool combo_enum(
-    const char* label, T& value, const std::vector<std::string>& names) {
-  auto index   = (int)value;
-  auto changed = false;
-  if (ImGui::BeginCombo(label, names[index].c_str())) {
-    for (auto i = 0; i < (int)names.size(); i++) {
-      if (ImGui::Selectable(names[i].c_str(), i == index) && i != index) {
-        value   = (T)i;
-        changed = true;
-      }
-    }
+// A combo box over a names table; returns the choice, or "" when unchanged.
+static std::string combo_names(const char* label,
+    const std::vector<std::string>& names, const std::string& current) {
+  auto choice = std::string{};
+  if (ImGui::BeginCombo(label, current.c_str())) {
+    for (auto& name : names)
+      if (ImGui::Selectable(name.c_str(), name == current) && name != current)
+        choice = name;
     ImGui::EndCombo();
   }
-  return changed;
+  return choice;
 }
 
-// Render settings (Yocto/GL's ranges); returns whether any changed.
+// The widget of one option of the table (render_options.h): its slider
+// range, its help as the tooltip. Returns whether the value changed; a value
+// typed out of the table's range (ctrl+click) is refused, not clamped.
+static bool draw_option(
+    render_settings& settings, const render_option& option) {
+  auto label = option.name.c_str();
+  auto text  = get_render_option(settings, option);
+  auto value = std::string{};
+  auto flags = option.log ? ImGuiSliderFlags_Logarithmic : 0;
+  switch (option.type) {
+    case render_option_type::integer: {
+      auto number = std::stoi(text);
+      if (ImGui::SliderInt(label, &number, (int)option.ui_min,
+              (int)option.ui_max, "%d", flags))
+        value = std::to_string(number);
+      break;
+    }
+    case render_option_type::number: {
+      auto number = std::stof(text);
+      if (ImGui::SliderFloat(label, &number, (float)option.ui_min,
+              (float)option.ui_max, "%.2f", flags)) {
+        char buffer[32];
+        std::snprintf(buffer, sizeof(buffer), "%.9g", number);  // exact
+        value = buffer;
+      }
+      break;
+    }
+    case render_option_type::flag: {
+      auto flag = text == "true";
+      if (ImGui::Checkbox(label, &flag)) value = flag ? "true" : "false";
+      break;
+    }
+    case render_option_type::choice:
+      value = combo_names(label, *option.choices, text);
+      break;
+    case render_option_type::seed:
+    case render_option_type::text: break;  // not in the viewer
+  }
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", option.help.c_str());
+  if (value.empty() || value == text) return false;
+  try {
+    set_render_option(settings, option, value);
+  } catch (const io_error&) { return false; }
+  return true;
+}
+
+// The viewer's options of one stage, in the table's order.
+static bool draw_options(render_settings& settings, render_option_stage stage) {
+  auto edited = false;
+  for (auto& option : render_option_table())
+    if (option.viewer && option.stage == stage)
+      edited |= draw_option(settings, option);
+  return edited;
+}
+
+// Render settings: the camera, then the table's; returns whether any
+// changed.
 static bool draw_render_settings(viewer_state& state) {
-  auto& params   = state.params;
-  auto  previous = params;
-  auto  edited   = false;
-  auto  label    = camera_label(state, params.camera);
+  auto& params = state.params;
+  auto  edited = false;
+  auto  label  = camera_label(state, params.camera);
   if (ImGui::BeginCombo("camera", label.c_str())) {
     for (auto i = 0; i < (int)state.cameras.size(); i++) {
       if (ImGui::Selectable(
@@ -249,41 +301,10 @@ static bool draw_render_settings(viewer_state& state) {
     }
     ImGui::EndCombo();
   }
-  edited |= ImGui::SliderInt("resolution", &params.resolution, 180, 4096);
-  edited |= ImGui::SliderInt("samples", &params.samples, 16, 4096);
-  edited |= combo_enum("shader", params.shader, shader_type_names);
-  edited |= ImGui::SliderInt("bounces", &params.bounces, 1, 128);
-  edited |=
-      ImGui::SliderInt("st max iter", &params.march.max_iterations, 1, 4096);
-  edited |= ImGui::Checkbox("implicit MIS", &params.implicit_mis);
-  if (params.implicit_mis) {
-    ImGui::SameLine();
-    ImGui::SetNextItemWidth(80);
-    edited |= combo_enum("mis", params.mis, mis_type_names);
-  }
-  edited |= combo_enum("sampler", params.sampler, sampler_type_names);
-  edited |= ImGui::SliderFloat(
-      "clamp", &params.clamp, 1, 10000, "%.1f", ImGuiSliderFlags_Logarithmic);
-  edited |= ImGui::Checkbox("envhidden", &params.envhidden);
-  ImGui::SameLine();
-  edited |= ImGui::Checkbox("tentfilter", &params.tentfilter);
-  edited |= ImGui::SliderInt("pratio", &params.pratio, 1, 64);
-  // Keep what the sliders' text entry (ctrl+click) could set out of range
-  // within what the renderer accepts.
-  params.resolution           = std::max(params.resolution, 1);
-  params.samples              = std::max(params.samples, 1);
-  params.bounces              = std::max(params.bounces, 1);
-  params.pratio               = std::max(params.pratio, 1);
-  params.clamp                = std::max(params.clamp, 1e-3f);
-  params.march.max_iterations = std::max(params.march.max_iterations, 1);
-  // Anything else the render core refuses (NaN, values too large) is undone:
-  // the worker renders only valid parameters.
-  try {
-    validate_params(params);
-  } catch (const io_error&) {
-    params = previous;
-    return false;
-  }
+  auto settings   = render_settings{};
+  settings.params = params;
+  edited |= draw_options(settings, render_option_stage::render);
+  params = settings.params;
   return edited;
 }
 
@@ -327,8 +348,12 @@ static bool draw_panel(viewer_state& state, const viewer_params& viewer,
   if (ImGui::CollapsingHeader("render", ImGuiTreeNodeFlags_DefaultOpen))
     edited = draw_render_settings(state);
   if (ImGui::CollapsingHeader("tonemap", ImGuiTreeNodeFlags_DefaultOpen)) {
-    auto retonemap = ImGui::SliderFloat("exposure", &state.exposure, -5, 5);
-    retonemap |= ImGui::Checkbox("filmic", &state.filmic);
+    auto settings            = render_settings{};
+    settings.params.exposure = state.exposure;
+    settings.params.filmic   = state.filmic;
+    auto retonemap = draw_options(settings, render_option_stage::output);
+    state.exposure = settings.params.exposure;
+    state.filmic   = settings.params.filmic;
     if (retonemap && state.has_image)
       upload_image(state.texture, shown.image, state.exposure, state.filmic);
   }

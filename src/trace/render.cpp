@@ -10,6 +10,7 @@
 #include <mutex>
 
 #include "../util/error.h"
+#include "render_options.h"
 
 namespace implicit {
 
@@ -63,14 +64,17 @@ static void check_float(const char* name, float value, float min, float max) {
 }
 
 void validate_params(const trace_params& params) {
-  check_int("resolution", params.resolution, 1, 16384);
-  check_int("samples", params.samples, 1, 1 << 20);
-  check_int("bounces", params.bounces, 1, 1024);
-  check_float("clamp", params.clamp, 1e-6f, flt_max);
-  check_float("exposure", params.exposure, -100.0f, 100.0f);
+  // The options' ranges: the table's (render_options.h).
+  auto settings   = render_settings{};
+  settings.params = params;
+  for (auto& option : render_option_table()) {
+    auto problem = check_render_option(settings, option);
+    if (!problem.empty())
+      throw io_error("render parameter " + option.name + ": " + problem);
+  }
+  // Settings that are no user's option.
   check_int("camera", params.camera, 0, 1 << 30);
   auto& march = params.march;
-  check_int("stmaxiter", march.max_iterations, 1, 1000000);
   check_float("march.hit_relative", march.hit_relative, 0.0f, 1.0f);
   check_float("march.scene_epsilon", march.scene_epsilon, 0.0f, 1.0f);
   check_float("march.overrelax", march.overrelax, 1.0f, 2.0f);
