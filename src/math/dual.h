@@ -13,6 +13,8 @@
 // derivative and a box the hull of both; at a jump (floor, round, mod,
 // compare, and, or, not, atan2's cut) a point takes the derivative of the
 // piece it lies on and a box that may hold the jump gets an unbounded one.
+// Where the value may be NaN (entire over a box) the derivatives are
+// unknown too, whatever the chain rule would give.
 #pragma once
 
 #include "interval.h"
@@ -61,16 +63,24 @@ inline interval unknown_value<interval>() {
 inline float    join_slopes(float a, float) { return a; }
 inline interval join_slopes(interval a, interval b) { return hull(a, b); }
 
-// value with derivatives slope * a.d (the chain rule).
-template <class T>
-inline dual<T> chain(const dual<T>& a, const T& value, const T& slope) {
-  return {value, {slope * a.d[0], slope * a.d[1], slope * a.d[2]}};
-}
 // value with unknown derivatives (a NaN value or a possible jump).
 template <class T>
 inline dual<T> with_unknown_slope(const T& value) {
   auto u = unknown_value<T>();
   return {value, {u, u, u}};
+}
+// The dual itself, or unknown derivatives where its value may be NaN: ln
+// over [-2, -1] is NaN everywhere, yet its chain rule gives finite slopes,
+// which a tracer would take for a Lipschitz bound.
+template <class T>
+inline dual<T> nan_checked(const dual<T>& a) {
+  return may_be_nan(a.v) ? with_unknown_slope(a.v) : a;
+}
+// value with derivatives slope * a.d (the chain rule).
+template <class T>
+inline dual<T> chain(const dual<T>& a, const T& value, const T& slope) {
+  return nan_checked(
+      dual<T>{value, {slope * a.d[0], slope * a.d[1], slope * a.d[2]}});
 }
 // A piecewise constant value: derivative 0 where the value is one number
 // over the whole box (always, at a point), unknown where it may jump.
@@ -91,17 +101,19 @@ inline dual<T> math_neg(const dual<T>& a) {
 }
 template <class T>
 inline dual<T> math_add(const dual<T>& a, const dual<T>& b) {
-  return {a.v + b.v, {a.d[0] + b.d[0], a.d[1] + b.d[1], a.d[2] + b.d[2]}};
+  return nan_checked(
+      dual<T>{a.v + b.v, {a.d[0] + b.d[0], a.d[1] + b.d[1], a.d[2] + b.d[2]}});
 }
 template <class T>
 inline dual<T> math_sub(const dual<T>& a, const dual<T>& b) {
-  return {a.v - b.v, {a.d[0] - b.d[0], a.d[1] - b.d[1], a.d[2] - b.d[2]}};
+  return nan_checked(
+      dual<T>{a.v - b.v, {a.d[0] - b.d[0], a.d[1] - b.d[1], a.d[2] - b.d[2]}});
 }
 template <class T>
 inline dual<T> math_mul(const dual<T>& a, const dual<T>& b) {
   auto r = dual<T>{a.v * b.v};
   for (auto i = 0; i < 3; i++) r.d[i] = a.d[i] * b.v + a.v * b.d[i];
-  return r;
+  return nan_checked(r);
 }
 // (a / b)' = (a' - q b') / b with q = a / b.
 template <class T>
@@ -109,7 +121,7 @@ inline dual<T> math_div(const dual<T>& a, const dual<T>& b) {
   auto r   = dual<T>{a.v / b.v};
   auto inv = T(1) / b.v;
   for (auto i = 0; i < 3; i++) r.d[i] = (a.d[i] - r.v * b.d[i]) * inv;
-  return r;
+  return nan_checked(r);
 }
 template <class T>
 inline dual<T> operator-(const dual<T>& a) {

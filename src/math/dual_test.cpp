@@ -170,10 +170,13 @@ TEST_CASE("dual: derivatives of every clause match central differences") {
   CHECK_BINARY_DERIVATIVES(math_or, wide, other)
 }
 
-// Whether every part of the point dual lies in the box dual.
+// Whether every part of the point dual lies in the box dual, and a box
+// value that may be NaN has unknown derivatives.
 bool encloses(const dual<interval>& box, const dual<float>& point) {
-  for (auto i = 0; i < 3; i++)
+  for (auto i = 0; i < 3; i++) {
     if (!contains(box.d[i], point.d[i])) return false;
+    if (is_entire(box.v) && !is_entire(box.d[i])) return false;
+  }
   return contains(box.v, point.v);
 }
 
@@ -293,6 +296,9 @@ TEST_CASE("dual: jumps and singularities give unbounded box derivatives") {
         interval{0, 0});
   CHECK(is_entire(math_sqrt(make_dual_variable(interval{0, 1}, 0)).d[0]));
   CHECK(gradient_bound(math_floor(x)) == flt_inf);
+  // NaN everywhere (ln of a negative): no slope is known.
+  CHECK(gradient_bound(math_log(make_dual_variable(interval{-2, -1}, 0))) ==
+        flt_inf);
   // A point derivative of floor is 0 even on the jump.
   CHECK(math_floor(make_dual_variable(1.0f, 0)).d[0] == 0);
   // Kinks: |x| over a box holding 0 has slopes in [-1, 1].
