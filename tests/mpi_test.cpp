@@ -14,6 +14,7 @@
 #include "image/image_io.h"
 #include "math/math.h"
 #include "test_commands.h"
+#include "trace/render_queue.h"
 
 namespace fs = std::filesystem;
 using namespace implicit_test;
@@ -105,14 +106,15 @@ command_result run_single(const std::string& arguments) {
 #ifdef IMPLICIT_MPIEXEC
 // ypathtrace on `ranks` processes of this machine. Leak checking is off: the
 // MPI runtime does not free everything before exit.
+// `wrapper` runs before ypathtrace on every rank (it must exec it).
 command_result run_mpi(int ranks, const std::string& arguments,
-    const std::string& environment = "") {
+    const std::string& environment = "", const std::string& wrapper = "") {
   return run_command(
       "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 "
       "OMPI_MCA_rmaps_base_oversubscribe=1 ASAN_OPTIONS=detect_leaks=0 " +
       environment + " timeout 120 " + IMPLICIT_MPIEXEC + " -np " +
-      std::to_string(ranks) + " " + program_path("ypathtrace") + " " +
-      arguments);
+      std::to_string(ranks) + " " + wrapper + " " + program_path("ypathtrace") +
+      " " + arguments);
 }
 #endif
 
@@ -129,19 +131,13 @@ bool skip_without_mpi() {
 #endif
 }
 
-// The orbit ypathtrace's --turntable computes, written out independently:
-// rotation by 2 pi frame / frames about the vertical through the focus point.
+// The camera of frame `frame` of the test scene's orbit, as the library
+// computes it (its orbit is tested in src/trace/render_queue_test.cpp).
 implicit::frame3f orbit_frame(int frame, int frames) {
-  using namespace implicit;
-  auto angle  = 2 * pif * (float)frame / (float)frames;
-  auto c      = std::cos(angle);
-  auto s      = std::sin(angle);
-  auto rotate = [&](vec3f v) {
-    return vec3f{c * v.x + s * v.z, v.y, -s * v.x + c * v.z};
-  };
-  auto focus = test_camera.o - test_camera.z * test_focus;
-  return {rotate(test_camera.x), rotate(test_camera.y), rotate(test_camera.z),
-      focus + rotate(test_camera.o - focus)};
+  auto camera  = implicit::camera_data{};
+  camera.frame = test_camera;
+  camera.focus = test_focus;
+  return implicit::turntable_camera(camera, frame, frames).frame;
 }
 
 }  // namespace
@@ -171,9 +167,12 @@ TEST_CASE("mpi: images are byte-identical to one process at any rank count") {
       INFO(name, ": ", result.output);
       REQUIRE(result.status == 0);
       CHECK(read_file_bytes(output) == read_file_bytes(expected));
-      for (auto batch : {"-s0002.exr", "-s0004.exr"})
-        CHECK(read_file_bytes(dir / (name + batch)) ==
-              read_file_bytes(dir / (prefix + batch)));
+      for (auto batch : {"-s0002.exr", "-s0004.exr"}) {
+        auto image   = read_file_bytes(dir / (name + batch));
+        auto missing = name + batch + " was not written";
+        CHECK_MESSAGE(!image.empty(), missing);
+        CHECK(image == read_file_bytes(dir / (prefix + batch)));
+      }
     }
   }
 }
@@ -212,13 +211,23 @@ TEST_CASE("mpi: a rank that dies mid-render fails the run, with no output") {
   auto dir    = test_dir("mpi_crash");
   auto scene  = write_test_scene(dir);
   auto output = dir / "out.exr";
-  // Rank 1 aborts after rendering its first tile, before sending it. The
-  // render is long enough (280 tiles, one thread) for rank 1 to start before
-  // rank 0 alone has finished; the abort ends the run early.
+  // Rank 1 is killed (SIGKILL, as a crashed machine) a second after it
+  // starts, in the middle of a render far too long to finish by then (280
+  // tiles of 100,000 samples, one thread): mpirun sees it die and ends the
+  // job. The wrapper execs ypathtrace, so the kill reaches the rank itself;
+  // the binary has no test hook.
+  fs::create_directories(dir / "bin");
+  auto wrapper = dir / "bin" / "kill_rank1.sh";
+  std::ofstream(wrapper) << "#!/bin/sh\n"
+                            "if [ \"$OMPI_COMM_WORLD_RANK\" = 1 ]; then\n"
+                            "  (sleep 1; kill -9 $$) &\n"
+                            "fi\n"
+                            "exec \"$@\"\n";
+  fs::permissions(wrapper, fs::perms::owner_all);
   auto result = run_mpi(2,
-      "--scene " + scene + " --resolution 160 --samples 64 --tilesize 8 " +
+      "--scene " + scene + " --resolution 160 --samples 100000 --tilesize 8 " +
           "--threads 1 --quiet --output " + output.string(),
-      "IMPLICIT_TEST_CRASH_RANK=1");
+      "", wrapper.string());
   INFO(result.output);
   CHECK(result.status != 0);
   CHECK(result.status != 124);  // ended by the failure, not by the timeout

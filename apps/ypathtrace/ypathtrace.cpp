@@ -1,27 +1,23 @@
 // # ypathtrace: render implicit-surface scenes
 //
-// parse options -> load scene -> render context (trace/render.h) -> render
-// samples -> save. The render core owns every policy; this file parses,
-// reports and writes.
+// parse options -> the viewer, or the one render driver (render_run.h: single
+// images, batches, sequences, MPI ranks). The render core owns every policy;
+// this file parses the command line.
 
 #include <tbb/global_control.h>
 
 #include <CLI/CLI.hpp>
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
 
-#include "distributed.h"
-#include "image/image_io.h"
+#include "render_run.h"
 #include "scene/scene_io.h"
 #include "trace/render.h"
 #include "trace/render_options.h"
 #include "util/error.h"
 #include "util/file.h"
-#include "util/progress.h"
 #ifdef IMPLICIT_VIEWER
 #include "gui/viewer.h"
 #endif
@@ -150,28 +146,6 @@ static void validate_options(app_options& opts) {
 // RENDER
 // -----------------------------------------------------------------------------
 
-// Set by SIGINT and SIGTERM; the render asks it between tiles. (The one
-// global: a signal handler can reach nothing else.)
-static std::atomic<bool> interrupted = false;
-
-static void on_signal(int) { interrupted.store(true); }
-
-static bool is_interrupted(void*) { return interrupted.load(); }
-
-// The bar during one pass of `count` samples from `first`: it moves as the
-// pass's tiles finish (the library calls one at a time).
-struct pass_progress {
-  progress_state* progress = nullptr;
-  int             first = 0, count = 0;
-};
-
-static void on_tile_done(void* user, int64_t done, int64_t total) {
-  auto& pass = *(pass_progress*)user;
-  update_progress(*pass.progress,
-      pass.first +
-          (int)((int64_t)pass.count * done / std::max(total, int64_t{1})));
-}
-
 // Open the viewer on the render context.
 static void run_interactive(
     const app_options& opts, const render_context& context) {
@@ -194,57 +168,19 @@ static void run_interactive(
 #endif
 }
 
-static int run(app_options& opts) {
+// The viewer on the scene.
+static int run_viewer_app(app_options& opts) {
 #ifdef IMPLICIT_VIEWER
-  if (opts.interactive) check_display();  // before a long scene load
+  check_display();  // before a long scene load
 #endif
   auto warnings = std::vector<std::string>{};
   auto scene    = load_scene(opts.scene, warnings);
   auto context  = make_render_context(std::move(scene), opts.render.params);
-  auto params   = resolve_params(
-        *context, opts.render.params, opts.render.camera, warnings);
+  opts.render.params = resolve_params(
+      *context, opts.render.params, opts.render.camera, warnings);
   for (auto& warning : warnings)
     std::fprintf(stderr, "warning: %s\n", warning.c_str());
-
-  if (opts.interactive) {
-    opts.render.params = params;
-    run_interactive(opts, *context);
-    return 0;
-  }
-
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  auto state    = make_render_state(*context, params);
-  auto progress = progress_state{};
-  start_progress(progress, "render " + opts.scene, params.samples,
-      !opts.quiet && stderr_is_terminal());
-  // Passes of up to max_pass_samples, ending at each --savebatch image:
-  // every pixel takes a pass's samples one after the other, and each finds
-  // in cache what the previous one read (3-10% faster on the seed's scenes
-  // at 32 spp than a pass per sample). The image is the same.
-  for (auto sample = 0; sample < params.samples;) {
-    auto end = std::min(params.samples, sample + max_pass_samples);
-    if (opts.savebatch > 0)
-      end = std::min(end, (sample / opts.savebatch + 1) * opts.savebatch);
-    auto pass      = pass_progress{&progress, sample, end - sample};
-    auto callbacks = render_callbacks{on_tile_done, is_interrupted, &pass};
-    if (!render_step(*context, state, end - sample, callbacks)) {
-      end_progress(progress);
-      std::fprintf(stderr,
-          "ypathtrace: interrupted after %d of %d samples; %s not written\n",
-          state.samples, params.samples, opts.output.c_str());
-      return 130;
-    }
-    update_progress(progress, end);
-    if (opts.savebatch > 0 && end % opts.savebatch == 0 &&
-        end < params.samples) {
-      save_image(batch_filename(opts.output, end), get_image(state),
-          params.exposure, params.filmic);
-    }
-    sample = end;
-  }
-  end_progress(progress);
-  save_image(opts.output, get_image(state), params.exposure, params.filmic);
+  run_interactive(opts, *context);
   return 0;
 }
 
@@ -254,12 +190,12 @@ int main(int argc, char** argv) {
       CLI::App{"Render scenes made of implicit surfaces (SDFs and SDF grids).",
           "ypathtrace"};
   add_options(app, opts);
-  auto dist = distributed_options{};  // mpirun and --turntable
-  add_distributed_options(app, dist);
+  auto run = run_options{};  // --turntable and --tilesize
+  add_run_options(app, run);
   try {
     app.parse(argc, argv);
     validate_options(opts);
-    if (opts.interactive && needs_distributed(dist))
+    if (opts.interactive && (run.turntable > 0 || launched_by_mpirun()))
       throw CLI::ValidationError(
           "--interactive", "the viewer runs without mpirun and --turntable");
   } catch (const CLI::CallForHelp&) {
@@ -279,13 +215,11 @@ int main(int argc, char** argv) {
     if (opts.render.threads > 0)
       control = std::make_unique<tbb::global_control>(
           tbb::global_control::max_allowed_parallelism, opts.render.threads);
-    if (needs_distributed(dist)) {
-      dist.scene = opts.scene, dist.output = opts.output;
-      dist.camera = opts.render.camera, dist.params = opts.render.params;
-      dist.savebatch = opts.savebatch, dist.quiet = opts.quiet;
-      return run_distributed(dist);
-    }
-    return run(opts);
+    if (opts.interactive) return run_viewer_app(opts);
+    run.scene = opts.scene, run.output = opts.output;
+    run.camera = opts.render.camera, run.params = opts.render.params;
+    run.savebatch = opts.savebatch, run.quiet = opts.quiet;
+    return run_render(run);
   } catch (const std::exception& error) {
     std::fprintf(stderr, "ypathtrace: error: %s\n", error.what());
     return 1;

@@ -1,4 +1,4 @@
-// # ypathtrace: scene bundles (see scene_bundle.h)
+// # implicit: scene bundles (see scene_bundle.h)
 
 #include "scene_bundle.h"
 
@@ -10,7 +10,7 @@
 #include <fstream>
 #include <set>
 
-#include "util/error.h"
+#include "../util/error.h"
 
 namespace fs = std::filesystem;
 

@@ -1,4 +1,4 @@
-// # ypathtrace: scene bundles
+// # implicit: scene bundles
 //
 // Under mpirun no shared filesystem is assumed: rank 0 packs the scene file
 // and every file it references (grids, textures, environment maps) into one
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "scene/scene.h"
+#include "scene.h"
 
 namespace implicit {
 
