@@ -1,0 +1,359 @@
+// # implicit: tracing functions that are no distance bounds
+//
+// A closed-form expression (x^2 + y^2 + z^2 - 1, a tangle cube, an exp/ln
+// blend) has no global Lipschitz bound the user could be trusted to give,
+// and sphere tracing with a wrong one leaves holes. This march needs none:
+// it walks the ray through regions (the leaf cells of the object's field, or
+// its whole box in the reference mode) that each know the range of the
+// function over them and a bound of its slope along the ray:
+//
+// - a region whose range excludes 0 holds no surface and is crossed without
+//   an evaluation (the interval test of Knoll et al. 2009, "Fast Ray Tracing
+//   of Arbitrary Implicit Surfaces with Interval and Affine Arithmetic");
+// - in a region with a finite slope bound L, the march steps by |f| / L,
+//   which cannot pass a root (segment tracing, Galin et al. 2020, "Segment
+//   Tracing Using Local Lipschitz Bounds": the Lipschitz bound of the
+//   segment ahead, here of the region it lies in), and by at least the hit
+//   threshold, evaluating the end of each such forced step;
+// - in a region without a finite bound (a jump, sqrt at 0, a possible NaN)
+//   the ray's interval is bisected with an explicit stack, nearest half
+//   first, and each piece is dropped when its range excludes 0, marched when
+//   its own slope bound is finite, or sampled at its end once it is shorter
+//   than the hit threshold (Knoll et al.'s root isolation); pieces where the
+//   value may be NaN and is NaN at both ends stop at a coarser length, so a
+//   NaN region costs a fixed number of samples instead of a bisection down
+//   to the threshold, while its border is still bisected.
+//
+// A hit is a change of side: inside means f < 0, and NaN counts as outside,
+// so NaN regions never stop a ray that starts outside. The first change is
+// bracketed between the last point known to lie on the ray's starting side
+// (everything before it checked) and the first point known to lie on the
+// other, then refined to the root by Newton's method on the exact derivative
+// along the ray, falling back to bisection whenever a Newton step leaves the
+// bracket, so the reported point lies within a fraction of the hit threshold
+// of the surface, on the starting side. Roots closer together than the hit
+// threshold (a sliver thinner than it) may be passed, as sphere tracing
+// passes them; nothing else is.
+#pragma once
+
+#include "../math/dual.h"
+#include "accel.h"
+#include "sphere_trace.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// REGIONS
+// -----------------------------------------------------------------------------
+
+// A stretch of the ray inside one region: the region's handle (what the
+// function evaluates with), where the ray leaves it, the range of the values
+// over it and a bound of |df/dt| along the ray there (+inf if none).
+struct segment_region {
+  int      region = invalidid;
+  float    t_exit = 0;
+  interval range  = entire_interval;
+  float    slope  = flt_inf;
+};
+
+// Range and slope bound over a piece of the ray (the box of its ends).
+struct segment_bound {
+  interval range = entire_interval;
+  float    slope = flt_inf;
+};
+
+// The function along one ray, as the march sees it (accel.cpp adapts an
+// object's field; tests adapt closed forms). Any type with these members:
+//   segment_region locate(float t)       the region the ray enters at t
+//   float value(int region, float t)     f at the ray point t
+//   vec2f value_slope(int region, float t)   f and df/dt there
+//   segment_bound bound(int region, float t0, float t1)   over [t0, t1]
+// `locate` must return t_exit > t except at the end of the ray.
+
+// -----------------------------------------------------------------------------
+// MARCH
+// -----------------------------------------------------------------------------
+
+// Pieces of a region without a finite bound where the value may be NaN, and
+// is NaN at both ends, stop being bisected at this fraction of the object's
+// stretch of the ray (the regions of a field are many and small where the
+// value may be NaN: their range never decides them).
+inline constexpr float segment_nan_fraction = 1.0f / 64;
+// Most pieces pending at once: bisection halves a piece per level, and a
+// float interval cannot be halved more than about 280 times, but the hit
+// threshold stops it long before (t * 1e-5 is 17 halvings of t).
+inline constexpr int segment_stack_size = 64;
+// A root is refined until its bracket is this fraction of the hit
+// threshold, or a few floats wide, or after this many steps.
+inline constexpr float segment_root_fraction = 1e-3f;
+inline constexpr int   segment_root_steps    = 64;
+// The region's slope bound is refined over a segment ahead when its step
+// covers less than this fraction of the region's stretch.
+inline constexpr float segment_local_fraction = 1.0f / 8;
+// Evaluations per ray (points, intervals) allowed per iteration of the
+// sphere-tracing cap: a region costs about as much as a sphere-tracing step.
+inline constexpr int segment_evaluation_factor = 4;
+
+// What the march has learned so far along the ray.
+struct segment_state {
+  bool  start_inside    = false;  // side of the ray's start (f < 0)
+  float last_t          = 0;      // everything before it is on the start side
+  float last_f          = 0;      // f at last_t when `have_last`
+  bool  have_last       = false;
+  float cutoff          = flt_max;
+  int   evaluations     = 0;
+  int   max_evaluations = 0;
+  // A bracket [lo, hi] of the first change of side, once found.
+  bool  found = false;
+  float lo = 0, hi = 0;
+};
+
+// Whether f lies inside (NaN counts as outside).
+inline bool segment_inside(float f) { return f < 0; }
+
+// Hit threshold at t along the ray.
+inline float segment_epsilon(
+    const march_params& params, float hit_min, float t) {
+  return std::max(hit_min, params.hit_relative * t);
+}
+
+// Note a change of side first seen at `t` (its value on the other side).
+inline void segment_bracket(segment_state& state, float t) {
+  state.found = true;
+  state.lo    = state.last_t;
+  state.hi    = t;
+}
+
+// Note that f at t (on the start side) was checked with everything before.
+inline void segment_advance(segment_state& state, float t, float f) {
+  state.last_t    = t;
+  state.last_f    = f;
+  state.have_last = true;
+}
+
+// Bound of the step from t where the region's slope bound allows `safe`:
+// when that covers little of the stretch to b, the bound over a shorter
+// segment [t, t + length] ahead may allow more (Galin et al.'s local bound
+// of the segment; the segment grows with the steps taken). A segment whose
+// range excludes 0 is crossed whole.
+template <typename Function>
+inline float segment_local_step(const Function& function, int region, float t,
+    float b, float f, float safe, float& length, segment_state& state) {
+  if (safe >= (b - t) * segment_local_fraction) return safe;
+  length     = std::min(b - t, std::max(length, 2 * safe));
+  auto bound = function.bound(region, t, t + length);
+  state.evaluations++;
+  auto range = bound.range;
+  auto local = safe;
+  if (!is_entire(range) && (range.hi < 0 || range.lo >= 0)) {
+    local = length;
+  } else if (bound.slope < flt_inf) {
+    local = std::min(std::abs(f) / bound.slope, length);
+  }
+  local  = std::max(safe, local);
+  length = 2 * std::max(local, length * 0.5f);
+  if (local < length * 0.25f) length = 4 * local;
+  return local;
+}
+
+// March [a, b] inside one region where |df/dt| <= slope: steps of |f| /
+// slope (or of the local bound ahead) cannot pass a root; shorter ones are
+// taken as the hit threshold and their ends checked. Returns when a change
+// of side is bracketed, the stretch is done, or the budget or the cutoff
+// ends the ray.
+template <typename Function>
+inline void segment_lipschitz(const Function& function, int region, float slope,
+    float a, float b, const march_params& params, float hit_min,
+    segment_state& state) {
+  auto t = a;
+  auto f = 0.0f;
+  if (state.have_last && state.last_t == a) {
+    f = state.last_f;
+  } else {
+    f = function.value(region, t);
+    state.evaluations++;
+    if (segment_inside(f) != state.start_inside)
+      return segment_bracket(state, t);
+    segment_advance(state, t, f);
+  }
+  auto length = 0.0f;  // of the last local segment
+  while (t < b) {
+    if (t > state.cutoff || state.evaluations >= state.max_evaluations) return;
+    // |f| / slope; a NaN value (no finite slope should allow one) steps by
+    // the threshold.
+    auto safe = std::abs(f) / slope;
+    if (!(safe >= 0)) safe = 0;
+    safe = segment_local_step(function, region, t, b, f, safe, length, state);
+    if (t + safe >= b) {
+      // No root before the end: the next region takes over from there.
+      state.last_t    = b;
+      state.have_last = false;
+      return;
+    }
+    auto step = std::max(safe, segment_epsilon(params, hit_min, t));
+    auto next = std::min(t + step, b);
+    if (next <= t) next = float_up(t, 1);
+    f = function.value(region, next);
+    state.evaluations++;
+    if (segment_inside(f) != state.start_inside)
+      return segment_bracket(state, next);
+    t = next;
+    segment_advance(state, t, f);
+  }
+}
+
+// One piece of a region's stretch of the ray, for root isolation.
+struct segment_piece {
+  float a = 0, b = 0;
+};
+
+// Whether f is NaN at both ends of a piece (the start's value is known
+// when the march checked it last): such a piece of a region where the value
+// may be NaN is taken as lying in a NaN region and not bisected further.
+template <typename Function>
+inline bool segment_nan_ends(const Function& function, int region,
+    const segment_piece& piece, segment_state& state) {
+  auto known = state.have_last && state.last_t == piece.a;
+  auto fa    = known ? state.last_f : function.value(region, piece.a);
+  if (!known) state.evaluations++;
+  if (fa == fa) return false;
+  auto fb = function.value(region, piece.b);
+  state.evaluations++;
+  return fb != fb;
+}
+
+// Isolate the first root in [a, b] inside one region without a finite
+// slope bound: bisect, nearest half first, dropping pieces whose range
+// excludes 0, marching those with a finite slope bound, and sampling the end
+// of pieces shorter than the hit threshold (or, where the value may be NaN
+// and is NaN at both ends, shorter than `coarse`).
+template <typename Function>
+inline void segment_isolate(const Function& function, int region, float a,
+    float b, float coarse, const march_params& params, float hit_min,
+    segment_state& state) {
+  segment_piece stack[segment_stack_size];
+  auto          count = 0;
+  stack[count++]      = {a, b};
+  while (count > 0 && !state.found) {
+    auto piece = stack[--count];
+    if (piece.a > state.cutoff || state.evaluations >= state.max_evaluations)
+      return;
+    auto bound = function.bound(region, piece.a, piece.b);
+    state.evaluations++;
+    auto range = bound.range;
+    if (!is_entire(range) && (range.hi < 0 || range.lo >= 0)) {
+      // One side over the whole piece: a change of side at its start if it
+      // is the other one (a jump), else nothing in it.
+      if ((range.hi < 0) != state.start_inside)
+        return segment_bracket(state, piece.a);
+      state.last_t    = piece.b;
+      state.have_last = false;
+      continue;
+    }
+    if (bound.slope < flt_inf) {
+      segment_lipschitz(function, region, bound.slope, piece.a, piece.b, params,
+          hit_min, state);
+      continue;
+    }
+    auto length = piece.b - piece.a;
+    auto small  = length <= segment_epsilon(params, hit_min, piece.a) ||
+                 (is_entire(range) && length <= coarse &&
+                     segment_nan_ends(function, region, piece, state));
+    auto mid = piece.a + length * 0.5f;
+    if (small || count + 2 > segment_stack_size || !(mid > piece.a) ||
+        !(mid < piece.b)) {
+      auto f = function.value(region, piece.b);
+      state.evaluations++;
+      if (segment_inside(f) != state.start_inside)
+        return segment_bracket(state, piece.b);
+      segment_advance(state, piece.b, f);
+      continue;
+    }
+    stack[count++] = {mid, piece.b};
+    stack[count++] = {piece.a, mid};
+  }
+}
+
+// Refine a bracket [lo, hi] (lo on the start side, hi on the other) to the
+// root: Newton steps on the exact derivative from the last point evaluated,
+// bisection when a step leaves the bracket. Returns the start-side end.
+template <typename Function>
+inline float segment_refine(const Function& function, float lo, float hi,
+    bool start_inside, float tolerance, int& evaluations) {
+  auto x = 0.0f, fx = 0.0f, gx = 0.0f;
+  auto have_point = false;
+  for (auto step = 0; step < segment_root_steps; step++) {
+    if (!(hi - lo > std::max(tolerance, 4 * flt_eps * std::abs(hi)))) break;
+    auto next = lo + (hi - lo) * 0.5f;
+    if (have_point && gx != 0) {
+      auto newton = x - fx / gx;
+      if (newton > lo && newton < hi) next = newton;
+    }
+    auto region = function.locate(next).region;
+    auto value  = function.value_slope(region, next);
+    evaluations++;
+    x          = next;
+    fx         = value.x;
+    gx         = value.y;
+    have_point = std::isfinite(fx) && std::isfinite(gx);
+    if (segment_inside(fx) == start_inside) {
+      lo = x;
+    } else {
+      hi = x;
+    }
+  }
+  return lo;
+}
+
+// First change of side of the function along the ray in [t0, t1]; gives up
+// (no hit) once everything it could still report lies beyond `cutoff`, or
+// when its budget of evaluations is spent.
+template <typename Function>
+inline march_result segment_trace(const Function& function, float t0, float t1,
+    float cutoff, const march_params& params, float hit_min) {
+  auto result           = march_result{};
+  auto state            = segment_state{};
+  state.cutoff          = cutoff;
+  state.max_evaluations = params.max_iterations * segment_evaluation_factor;
+  auto t                = t0;
+  auto region           = function.locate(t);
+  auto f                = function.value(region.region, t);
+  state.evaluations     = 1;
+  state.start_inside    = segment_inside(f);
+  segment_advance(state, t, f);
+  while (t < t1 && !state.found) {
+    if (state.last_t > cutoff || state.evaluations >= state.max_evaluations)
+      break;
+    auto end   = std::min(std::max(region.t_exit, float_up(t, 1)), t1);
+    auto range = region.range;
+    if (!is_entire(range) && (range.hi < 0 || range.lo >= 0)) {
+      if ((range.hi < 0) != state.start_inside) {
+        segment_bracket(state, t);
+      } else {
+        state.last_t    = end;
+        state.have_last = false;
+      }
+    } else if (region.slope < flt_inf) {
+      segment_lipschitz(function, region.region, region.slope, t, end, params,
+          hit_min, state);
+    } else {
+      segment_isolate(function, region.region, t, end,
+          (t1 - t0) * segment_nan_fraction, params, hit_min, state);
+    }
+    t = end;
+    if (!state.found && t < t1) region = function.locate(t);
+  }
+  result.evaluations = state.evaluations;
+  if (!state.found) return result;
+  auto epsilon  = segment_epsilon(params, hit_min, state.lo);
+  auto distance = segment_refine(function, state.lo, state.hi,
+      state.start_inside, epsilon * segment_root_fraction, result.evaluations);
+  // The march's guarantees end at the cutoff: a later hit is no hit.
+  if (distance > cutoff) return result;
+  result.hit      = true;
+  result.distance = distance;
+  result.epsilon  = epsilon;
+  return result;
+}
+
+}  // namespace implicit

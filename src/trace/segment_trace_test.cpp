@@ -1,0 +1,300 @@
+// Tests of segment_trace.h on closed forms that are no distance bounds: the
+// first hit along random rays against a dense-sampling reference written
+// here (no Lipschitz bound: signs at many points, then bisection), for
+// functions at scales 1000 and 0.001, a quartic, an exp/ln blend with sqrt
+// at 0, jumps and NaN regions; the march never exceeds its budget.
+
+#include "segment_trace.h"
+
+#include <doctest/doctest.h>
+
+#include <sstream>
+#include <string>
+
+#include "../math/random.h"
+
+namespace implicit {
+namespace {
+
+// A constant of the same kind as `like` (point, box or dual).
+inline float    constant_like(float, float c) { return c; }
+inline interval constant_like(interval, float c) { return interval{c}; }
+template <class T>
+inline dual<T> constant_like(const dual<T>&, float c) {
+  return make_dual_constant(T(c));
+}
+
+// A closed form along a ray, over its box cut into cells x cells x cells
+// regions (1: the whole box, as the reference mode), each with its range and
+// slope bound from dual<interval> over its box.
+template <class Shape>
+struct closed_form_ray {
+  Shape  shape = {};
+  ray3f  ray   = {};
+  bbox3f box   = {};
+  int    cells = 1;
+
+  bbox3f cell_box(int index) const {
+    auto cell =
+        vec3i{index % cells, (index / cells) % cells, index / (cells * cells)};
+    auto h  = size(box) / (float)cells;
+    auto lo = box.min + h * vec3f{(float)cell.x, (float)cell.y, (float)cell.z};
+    return {lo, lo + h};
+  }
+  segment_bound bound_box(const bbox3f& b) const {
+    auto x = make_dual_variable(interval{b.min.x, b.max.x}, 0);
+    auto y = make_dual_variable(interval{b.min.y, b.max.y}, 1);
+    auto z = make_dual_variable(interval{b.min.z, b.max.z}, 2);
+    auto f = shape(x, y, z);
+    auto s = f.d[0] * interval{ray.d.x} + f.d[1] * interval{ray.d.y} +
+             f.d[2] * interval{ray.d.z};
+    auto slope = mag(s);
+    return {f.v, slope == slope ? slope : flt_inf};
+  }
+  segment_region locate(float t) const {
+    auto p     = ray_point(ray, t);
+    auto index = 0, stride = 1;
+    for (auto a = 0; a < 3; a++) {
+      auto h = (at(box.max, a) - at(box.min, a)) / (float)cells;
+      auto u = (at(p, a) - at(box.min, a)) / h;
+      auto i = (int)std::floor(u);
+      if ((float)i == u && at(ray.d, a) < 0) i--;
+      index += clamp(i, 0, cells - 1) * stride;
+      stride *= cells;
+    }
+    auto b    = cell_box(index);
+    auto exit = flt_max;
+    for (auto a = 0; a < 3; a++) {
+      auto d = at(ray.d, a);
+      if (d == 0) continue;
+      auto plane = d > 0 ? at(b.max, a) : at(b.min, a);
+      exit       = std::min(exit, (plane - at(ray.o, a)) / d);
+    }
+    auto bound = bound_box(b);
+    return {index, exit, bound.range, bound.slope};
+  }
+  float value(int, float t) const {
+    auto p = ray_point(ray, t);
+    return shape(p.x, p.y, p.z);
+  }
+  vec2f value_slope(int, float t) const {
+    auto p = ray_point(ray, t);
+    auto f = shape(make_dual_variable(p.x, 0), make_dual_variable(p.y, 1),
+        make_dual_variable(p.z, 2));
+    return {f.v, dot(gradient(f), ray.d)};
+  }
+  segment_bound bound(int, float t0, float t1) const {
+    auto a = ray_point(ray, t0), b = ray_point(ray, t1);
+    return bound_box({min(a, b), max(a, b)});
+  }
+};
+
+template <class Shape>
+float shape_value(const Shape& shape, vec3f p) {
+  return shape(p.x, p.y, p.z);
+}
+
+// The reference: the sign of f at `samples` points of [t0, t1], the first
+// change of side (f < 0 inside, NaN outside) bisected to float precision.
+template <class Shape>
+bool dense_first_hit(const closed_form_ray<Shape>& f, float t0, float t1,
+    int samples, float& hit) {
+  auto inside = [&](double t) {
+    auto p = ray_point(f.ray, (float)t);
+    return shape_value(f.shape, p) < 0;
+  };
+  auto start = inside(t0);
+  auto prev  = (double)t0;
+  for (auto k = 1; k <= samples; k++) {
+    auto t = t0 + (t1 - t0) * (double)k / samples;
+    if (inside(t) != start) {
+      auto lo = prev, hi = t;
+      for (auto i = 0; i < 60; i++) {
+        auto mid                         = 0.5 * (lo + hi);
+        (inside(mid) == start ? lo : hi) = mid;
+      }
+      hit = (float)lo;
+      return true;
+    }
+    prev = t;
+  }
+  return false;
+}
+
+// Trace `rays` random rays at the box (from outside, a fifth from inside
+// it) with `cells` regions per axis; count the rays whose hit (or miss)
+// differs from the reference.
+template <class Shape>
+int count_disagreements(const Shape& shape, const bbox3f& box, int cells,
+    int rays, std::string& first, int* max_evaluations = nullptr) {
+  auto rng    = make_rng(29);
+  auto params = march_params{};
+  auto extent = length(size(box));
+  auto misses = 0;
+  for (auto n = 0; n < rays; n++) {
+    auto target =
+        box.min + size(box) * vec3f{rand1f(rng), rand1f(rng), rand1f(rng)};
+    auto origin = vec3f{};
+    if (n % 5 == 4) {
+      origin = center(box) + (target - center(box)) * 0.3f;
+      target =
+          box.min + size(box) * vec3f{rand1f(rng), rand1f(rng), rand1f(rng)};
+    } else {
+      auto u = rand1f(rng), v = rand1f(rng);
+      auto phi = 2 * pif * u, cos_theta = 2 * v - 1;
+      auto sin_theta = std::sqrt(std::max(0.0f, 1 - cos_theta * cos_theta));
+      origin         = center(box) + 2 * extent *
+                                 vec3f{sin_theta * std::cos(phi),
+                                     sin_theta * std::sin(phi), cos_theta};
+    }
+    auto ray = closed_form_ray<Shape>{shape,
+        ray3f{origin, normalize(target - origin), 0, flt_max}, box, cells};
+    auto t0 = 0.0f, t1 = 0.0f;
+    if (!intersect_bbox(ray.ray, box, t0, t1)) continue;
+    auto hit_min = 1e-6f * extent;
+    auto march   = segment_trace(ray, t0, t1, flt_max, params, hit_min);
+    if (max_evaluations)
+      *max_evaluations = std::max(*max_evaluations, march.evaluations);
+    auto expected = 0.0f;
+    auto hit      = dense_first_hit(ray, t0, t1, 20000, expected);
+    auto agree =
+        march.hit == hit && (!hit || std::abs(march.distance - expected) <=
+                                         1e-4f * extent + 2 * march.epsilon);
+    if (agree) continue;
+    if (misses++ == 0) {
+      auto stream = std::ostringstream{};
+      stream.precision(8);
+      stream << "ray " << n << " from (" << origin.x << ", " << origin.y << ", "
+             << origin.z << "): march " << march.hit << " at " << march.distance
+             << " (" << march.evaluations << " evaluations), reference " << hit
+             << " at " << expected;
+      first = stream.str();
+    }
+  }
+  return misses;
+}
+
+#define CHECK_AGAINST_REFERENCE(shape, box, cells, rays)                   \
+  {                                                                        \
+    auto first  = std::string{};                                           \
+    auto misses = count_disagreements(shape, box, cells, rays, first);     \
+    CHECK_MESSAGE(misses == 0, misses, " of ", rays, " rays differ with ", \
+        cells, " cells; ", first);                                         \
+  }
+
+const auto unit_box   = bbox3f{{-1.2f, -1.2f, -1.2f}, {1.2f, 1.2f, 1.2f}};
+const auto tangle_box = bbox3f{{-3, -3, -3}, {3, 3, 3}};
+
+// x^2 + y^2 + z^2 - 1 times `scale`: the value's scale must not matter.
+struct scaled_sphere {
+  float scale = 1;
+  template <class V>
+  V operator()(const V& x, const V& y, const V& z) const {
+    auto k = [&](float c) { return constant_like(x, c); };
+    return k(scale) * (x * x + y * y + z * z - k(1));
+  }
+};
+
+// A tangle cube: x^4 - 5 x^2 + y^4 - 5 y^2 + z^4 - 5 z^2 + 11.8.
+struct tangle_cube {
+  template <class V>
+  V operator()(const V& x, const V& y, const V& z) const {
+    auto k    = [&](float c) { return constant_like(x, c); };
+    auto term = [&](const V& a) {
+      auto a2 = math_square(a);
+      return math_square(a2) - k(5) * a2;
+    };
+    return term(x) + term(y) + term(z) + k(11.8f);
+  }
+};
+
+// Two spheres blended by -ln(exp(-8 a) + exp(-8 b)) / 8 (sqrt at 0 at
+// their centres: regions there have no finite slope bound).
+struct exp_log_blend {
+  template <class V>
+  V operator()(const V& x, const V& y, const V& z) const {
+    auto k      = [&](float c) { return constant_like(x, c); };
+    auto sphere = [&](float cx, float r) {
+      return math_sqrt(math_square(x - k(cx)) + y * y + z * z) - k(r);
+    };
+    auto a = sphere(-0.4f, 0.5f), b = sphere(0.45f, 0.4f);
+    return math_neg(math_log(math_exp(k(-8) * a) + math_exp(k(-8) * b))) / k(8);
+  }
+};
+
+// A staircase: floor(4 x) / 4 + y^2 + z^2 - 0.5 (jumps cross zero).
+struct staircase {
+  template <class V>
+  V operator()(const V& x, const V& y, const V& z) const {
+    auto k = [&](float c) { return constant_like(x, c); };
+    return math_floor(k(4) * x) / k(4) + y * y + z * z - k(0.5f);
+  }
+};
+
+// The unit sphere where x > -0.3, NaN elsewhere (ln of a negative).
+struct half_nan_sphere {
+  template <class V>
+  V operator()(const V& x, const V& y, const V& z) const {
+    auto k = [&](float c) { return constant_like(x, c); };
+    return x * x + y * y + z * z - k(1) + k(0) * math_log(x + k(0.3f));
+  }
+};
+
+// NaN everywhere.
+struct all_nan {
+  template <class V>
+  V operator()(const V& x, const V&, const V&) const {
+    auto k = [&](float c) { return constant_like(x, c); };
+    return math_log(k(-1) - x * x);
+  }
+};
+
+TEST_CASE("segment trace: a sphere scaled by 1000 and by 0.001") {
+  for (auto cells : {1, 8}) {
+    CHECK_AGAINST_REFERENCE(scaled_sphere{1000}, unit_box, cells, 300)
+    CHECK_AGAINST_REFERENCE(scaled_sphere{0.001f}, unit_box, cells, 300)
+  }
+}
+
+TEST_CASE("segment trace: a tangle cube and an exp/ln blend") {
+  for (auto cells : {1, 8}) {
+    CHECK_AGAINST_REFERENCE(tangle_cube{}, tangle_box, cells, 300)
+    CHECK_AGAINST_REFERENCE(exp_log_blend{}, unit_box, cells, 300)
+  }
+}
+
+TEST_CASE("segment trace: jumps and NaN regions") {
+  for (auto cells : {1, 8}) {
+    CHECK_AGAINST_REFERENCE(staircase{}, unit_box, cells, 300)
+    CHECK_AGAINST_REFERENCE(half_nan_sphere{}, unit_box, cells, 300)
+  }
+  // NaN everywhere: never a hit, and the march stops within its budget.
+  auto first       = std::string{};
+  auto evaluations = 0;
+  CHECK(count_disagreements(all_nan{}, unit_box, 8, 100, first, &evaluations) ==
+        0);
+  CHECK(evaluations <= 600);
+}
+
+TEST_CASE("segment trace: the hit is refined to the root") {
+  // Ray along x toward the unit sphere scaled by 1000: the root is t = 2.
+  auto ray    = closed_form_ray<scaled_sphere>{scaled_sphere{1000},
+         ray3f{{-3, 0, 0}, {1, 0, 0}, 0, flt_max}, unit_box, 8};
+  auto params = march_params{};
+  auto march  = segment_trace(ray, 1.8f, 4.2f, flt_max, params, 1e-6f);
+  CHECK(march.hit);
+  CHECK(march.distance <= 2.0f);
+  CHECK(march.distance >= 2.0f - 4 * flt_eps * 2);
+  // From inside, the exit: t = 4.
+  auto inside = segment_trace(ray, 2.5f, 4.2f, flt_max, params, 1e-6f);
+  CHECK(inside.hit);
+  CHECK(inside.distance == doctest::Approx(4.0f).epsilon(1e-6));
+  // A cutoff before the hit gives no hit; after it, the same hit.
+  CHECK(!segment_trace(ray, 1.8f, 4.2f, 1.9f, params, 1e-6f).hit);
+  auto cut = segment_trace(ray, 1.8f, 4.2f, 2.1f, params, 1e-6f);
+  CHECK(cut.hit);
+  CHECK(cut.distance == march.distance);
+}
+
+}  // namespace
+}  // namespace implicit
