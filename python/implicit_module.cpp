@@ -46,6 +46,7 @@
 #include "trace/render.h"
 #include "trace/render_options.h"
 #include "util/error.h"
+#include "util/file.h"
 
 namespace py = pybind11;
 using namespace implicit;
@@ -652,6 +653,14 @@ PYBIND11_MODULE(_implicit, m) {
       },
       py::arg("filename"), py::arg("image"), py::arg("exposure") = 0.0f,
       py::arg("filmic") = false);
+  m.def(
+      "write_file",
+      [](const std::string& filename, const py::bytes& data) {
+        auto                   bytes = std::string{data};
+        py::gil_scoped_release release;
+        write_file(filename, bytes);
+      },
+      py::arg("filename"), py::arg("data"));
   m.def(
       "load_image",
       [](const std::string& filename) {

@@ -14,9 +14,9 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -46,11 +46,9 @@ grid_format input_format(const std::string& filename, bool binary, bool text) {
   if (ext == ".vol") return grid_format::mitsuba;
   if (binary) return grid_format::skanti;
   if (text) return grid_format::sdfgen;
-  auto in = std::ifstream(filename, std::ios::binary);
-  char head[16];
-  in.read(head, sizeof(head));
-  for (auto i = 0; i < (int)in.gcount(); i++) {
-    auto c = head[i];
+  auto file = mapped_file{filename};
+  for (auto i = 0; i < (int)std::min(file.size, size_t{16}); i++) {
+    auto c = file.data[i];
     if (!std::isdigit((unsigned char)c) && !std::isspace((unsigned char)c) &&
         c != '-' && c != '+' && c != '.' && c != 'e' && c != 'E')
       return grid_format::skanti;

@@ -239,8 +239,7 @@ class Scene:
         path = os.fspath(path)
         directory = os.path.dirname(os.path.abspath(path))
         text = self.to_json(directory) + "\n"
-        with open(path, "w") as out:
-            out.write(text)
+        _implicit.write_file(path, text.encode())  # whole or not at all
 
     def load(self):
         """The scene parsed (and its files loaded) by the renderer."""

@@ -22,6 +22,7 @@ Conventions, as fogleman/sdf except where noted:
 import json
 import math
 import numbers
+import os
 
 import numpy as np
 
@@ -556,7 +557,6 @@ def write_stl(path, vertices, faces):
     data = np.zeros(len(f), dtype=record)
     data["normal"] = normals
     data["vertices"] = tri
-    with open(path, "wb") as out:
-        out.write(b"implicit binary STL".ljust(80, b" "))
-        out.write(np.uint32(len(f)).tobytes())
-        out.write(data.tobytes())
+    _implicit.write_file(os.fspath(path),
+                         b"implicit binary STL".ljust(80, b" ") +
+                         np.uint32(len(f)).tobytes() + data.tobytes())

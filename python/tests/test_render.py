@@ -243,6 +243,19 @@ def test_options_are_the_cli_table(ypathtrace):
     assert "samples (integer, 1..1048576; default 512)" in im.render.__doc__
 
 
+def test_files_are_written_whole(tmp_path):
+    # Scenes and STL meshes go through the library's atomic writer: a
+    # failure names the file and leaves nothing behind.
+    scene = im.Scene()
+    scene.add(im.sphere(1), {"color": (0.5, 0.5, 0.5)})
+    with pytest.raises(im.Error, match=r"nowhere/scene.json: cannot write"):
+        scene.save(tmp_path / "nowhere" / "scene.json")
+    scene.save(tmp_path / "scene.json")
+    im.sphere(1).save(tmp_path / "ball.stl", voxel=0.25)
+    assert sorted(os.listdir(tmp_path)) == ["ball.stl", "scene.json"]
+    assert im.load_scene(tmp_path / "scene.json").num_sdfunctions == 1
+
+
 def test_bad_images(tmp_path):
     for bad in (np.zeros((4, 4)), np.zeros((4, 4, 2)), np.zeros((0, 4, 4))):
         with pytest.raises(ValueError, match=r"\(height, width, 4\)"):

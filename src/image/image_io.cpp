@@ -32,7 +32,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <memory>
 #include <mutex>
 
@@ -71,12 +70,6 @@ static std::string errno_reason(int error) {
   return error != 0 ? std::strerror(error) : "input/output error";
 }
 
-// Closes a FILE* when it goes out of scope.
-struct file_closer {
-  void operator()(std::FILE* file) const { std::fclose(file); }
-};
-using file_ptr = std::unique_ptr<std::FILE, file_closer>;
-
 // Frees stb's pixel buffers.
 struct stb_freer {
   void operator()(void* data) const { stbi_image_free(data); }
@@ -91,29 +84,6 @@ static std::string stb_reason() {
 // -----------------------------------------------------------------------------
 // LOADING
 // -----------------------------------------------------------------------------
-
-// Read a whole file; a missing, unreadable or empty file is an error naming
-// it.
-static std::vector<uint8_t> read_file(const std::string& filename) {
-  auto file = file_ptr{std::fopen(filename.c_str(), "rb")};
-  if (!file)
-    throw_io_error(filename, "cannot open (" + errno_reason(errno) + ")");
-  // A directory opens fine on Linux and fails later with vaguer reasons.
-  if (std::filesystem::is_directory(filename))
-    throw_io_error(filename, "cannot open (" + errno_reason(EISDIR) + ")");
-  if (std::fseek(file.get(), 0, SEEK_END) != 0)
-    throw_io_error(filename, "cannot read (" + errno_reason(errno) + ")");
-  auto size = std::ftell(file.get());
-  if (size < 0)
-    throw_io_error(filename, "cannot read (" + errno_reason(errno) + ")");
-  if (size == 0) throw_io_error(filename, "file is empty");
-  std::rewind(file.get());
-  auto data = std::vector<uint8_t>((size_t)size);
-  errno     = 0;
-  if (std::fread(data.data(), 1, data.size(), file.get()) != data.size())
-    throw_io_error(filename, "cannot read (" + errno_reason(errno) + ")");
-  return data;
-}
 
 // Whether the bytes start with `magic`.
 static bool starts_with(const uint8_t* data, size_t size, const char* magic) {
@@ -361,13 +331,8 @@ bool is_hdr_filename(const std::string& filename) {
 image_data load_image(const std::string& filename) {
   if (get_format(filename) == image_format::unknown)
     throw_unknown_format(filename);
-  auto data = std::vector<uint8_t>{};
-  try {
-    data = read_file(filename);
-  } catch (const std::bad_alloc&) {
-    throw_io_error(filename, "out of memory reading the file");
-  }
-  return load_image_from_memory(filename, data.data(), data.size());
+  auto file = mapped_file{filename};
+  return load_image_from_memory(filename, file.data, file.size);
 }
 
 // Load an image from the bytes of a file (the name picks the decoder).
@@ -515,44 +480,29 @@ void save_image(const std::string& filename, const image_data& image,
                       " pixels, expected " + std::to_string(image.width) + "x" +
                       std::to_string(image.height));
 
-  auto temporary = temporary_path(filename);
-  auto file      = file_ptr{std::fopen(temporary.c_str(), "wb")};
-  if (!file)
-    throw_io_error(filename, "cannot write (" + errno_reason(errno) + ")");
-  // From here on every failure removes the temporary before throwing.
+  // Through the file layer: a temporary, renamed once complete; any error
+  // below removes it.
+  auto out  = output_file{filename};
+  errno     = 0;
   auto fail = [&](const std::string& reason) {
-    file.reset();
-    std::remove(temporary.c_str());
     throw_io_error(filename, "cannot write (" + reason + ")");
   };
-  errno = 0;
   try {
     auto encoded = true;
     switch (format) {
       case image_format::ldr:
-        encoded = write_ldr(file.get(), filename, image, exposure, filmic);
+        encoded = write_ldr(out.file, filename, image, exposure, filmic);
         break;
-      case image_format::hdr: encoded = write_hdr(file.get(), image); break;
-      case image_format::exr: write_exr(file.get(), filename, image); break;
+      case image_format::hdr: encoded = write_hdr(out.file, image); break;
+      case image_format::exr: write_exr(out.file, filename, image); break;
       case image_format::unknown: break;
     }
     if (!encoded) fail("the encoder failed");
   } catch (const io_error&) { throw; } catch (const std::exception& error) {
     fail(error.what());
   }
-  if (std::ferror(file.get())) fail(errno_reason(errno));
-  // fclose flushes the last buffer: a full disk shows up here.
-  auto closed = std::fclose(file.release());
-  if (closed != 0) {
-    auto reason = errno_reason(errno);
-    std::remove(temporary.c_str());
-    throw_io_error(filename, "cannot write (" + reason + ")");
-  }
-  if (std::rename(temporary.c_str(), filename.c_str()) != 0) {
-    auto reason = errno_reason(errno);
-    std::remove(temporary.c_str());
-    throw_io_error(filename, "cannot write (" + reason + ")");
-  }
+  if (std::ferror(out.file)) fail(errno_reason(errno));
+  commit_file(out);
 }
 
 }  // namespace implicit

@@ -52,17 +52,15 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <sstream>
 
 #include "../image/image_io.h"
 #include "../sdf/sdf_grid_io.h"
 #include "../sdf/sdf_primitives.h"
 #include "../util/error.h"
+#include "../util/file.h"
 #include "json_check.h"
 
 namespace implicit {
@@ -708,24 +706,9 @@ scene_data parse_scene(const std::string& text, const std::string& filename) {
   return parse_scene(text, filename, warnings);
 }
 
-// Read a whole file as text.
-static std::string read_scene_text(const std::string& filename) {
-  auto error = std::error_code{};
-  if (std::filesystem::is_directory(filename, error))
-    throw_io_error(filename, "is a directory, not a scene file");
-  auto stream = std::ifstream(filename, std::ios::binary);
-  if (!stream)
-    throw_io_error(filename,
-        std::string{"cannot open file ("} + std::strerror(errno) + ")");
-  auto text = std::string{
-      std::istreambuf_iterator<char>(stream), std::istreambuf_iterator<char>()};
-  if (stream.bad()) throw_io_error(filename, "read error");
-  return text;
-}
-
 scene_data load_scene(
     const std::string& filename, std::vector<std::string>& warnings) {
-  return parse_scene(read_scene_text(filename), filename, warnings);
+  return parse_scene(read_file(filename), filename, warnings);
 }
 
 scene_data load_scene(const std::string& filename) {

@@ -1,12 +1,12 @@
 // # implicit: SDF grid files: shared helpers of the grid and mesh loaders
 //
-// Internal to src/sdf: read-only file mapping, little-endian reads and
-// atomic writes (temporary name, then rename), plus the OpenVDB entry points
-// that live in their own translation unit (OpenVDB's headers are heavy).
+// Internal to src/sdf: little-endian reads and token excerpts for messages,
+// plus the OpenVDB entry points that live in their own translation unit
+// (OpenVDB's headers are heavy). Files are read and written through
+// util/file.h.
 #pragma once
 
 #include <cstdint>
-#include <cstdio>
 #include <cstring>
 #include <string>
 
@@ -18,38 +18,8 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
 namespace implicit {
 
 // -----------------------------------------------------------------------------
-// FILE ACCESS
+// BYTES
 // -----------------------------------------------------------------------------
-
-// A whole file mapped read-only; move-only owner of the mapping. Throws
-// io_error when the file can not be opened or is empty.
-struct mapped_file {
-  const char* data = nullptr;
-  size_t      size = 0;
-
-  explicit mapped_file(const std::string& filename);
-  ~mapped_file();
-  mapped_file(const mapped_file&)            = delete;
-  mapped_file& operator=(const mapped_file&) = delete;
-};
-
-// A file written under a temporary name and renamed by commit(), so a
-// failed save leaves no partial file; move-only owner of the FILE*.
-struct output_file {
-  std::string filename  = "";
-  std::string temporary = "";
-  FILE*       file      = nullptr;
-
-  explicit output_file(const std::string& filename);
-  ~output_file();
-  output_file(const output_file&)            = delete;
-  output_file& operator=(const output_file&) = delete;
-};
-
-// Write bytes; throws io_error on failure.
-void write_bytes(output_file& out, const void* data, size_t size);
-// Flush, close and rename to the final name; throws io_error on failure.
-void commit_file(output_file& out);
 
 // Little-endian reads from a byte buffer (the host is little-endian).
 inline int32_t read_i32(const char* p) {

@@ -6,11 +6,6 @@
 
 #include "sdf_grid_io.h"
 
-#include <fcntl.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -26,68 +21,8 @@
 namespace implicit {
 
 // -----------------------------------------------------------------------------
-// FILE ACCESS
+// HELPERS
 // -----------------------------------------------------------------------------
-
-mapped_file::mapped_file(const std::string& filename) {
-  auto fd = ::open(filename.c_str(), O_RDONLY);
-  if (fd < 0)
-    throw_io_error(
-        filename, "cannot open: " + std::string(std::strerror(errno)));
-  struct stat info;
-  if (::fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) {
-    ::close(fd);
-    throw_io_error(filename, "not a regular file");
-  }
-  if (info.st_size == 0) {
-    ::close(fd);
-    throw_io_error(filename, "empty file");
-  }
-  auto mapping =
-      ::mmap(nullptr, (size_t)info.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
-  ::close(fd);
-  if (mapping == MAP_FAILED)
-    throw_io_error(
-        filename, "cannot read: " + std::string(std::strerror(errno)));
-  data = (const char*)mapping;
-  size = (size_t)info.st_size;
-}
-
-mapped_file::~mapped_file() {
-  if (data) ::munmap((void*)data, size);
-}
-
-output_file::output_file(const std::string& name)
-    : filename{name}, temporary{temporary_path(name)} {
-  file = std::fopen(temporary.c_str(), "wb");
-  if (!file)
-    throw_io_error(
-        filename, "cannot write: " + std::string(std::strerror(errno)));
-}
-
-output_file::~output_file() {
-  if (file) {
-    std::fclose(file);
-    std::remove(temporary.c_str());
-  }
-}
-
-void write_bytes(output_file& out, const void* data, size_t size) {
-  if (size != 0 && std::fwrite(data, 1, size, out.file) != size)
-    throw_io_error(
-        out.filename, "write failed: " + std::string(std::strerror(errno)));
-}
-
-void commit_file(output_file& out) {
-  auto ok  = std::fflush(out.file) == 0;
-  ok       = std::fclose(out.file) == 0 && ok;
-  out.file = nullptr;
-  if (!ok || std::rename(out.temporary.c_str(), out.filename.c_str()) != 0) {
-    std::remove(out.temporary.c_str());
-    throw_io_error(
-        out.filename, "write failed: " + std::string(std::strerror(errno)));
-  }
-}
 
 std::string token_excerpt(const char* begin, const char* end) {
   auto text = std::string{};

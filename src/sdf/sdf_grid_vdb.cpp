@@ -10,11 +10,11 @@
 #include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 
-#include <cstdio>
 #include <mutex>
 #include <sstream>
 
 #include "../util/error.h"
+#include "../util/file.h"
 #include "../util/memory.h"
 #include "sdf_grid_file.h"
 
@@ -152,19 +152,18 @@ void save_vdb_grid(const std::string& filename, const grid_data& grid) {
       }
     }
   }
-  auto temporary = filename + ".tmp";
+  // OpenVDB writes by name: the whole file goes to the temporary of the
+  // file layer, renamed only when complete.
+  auto out = output_file{filename};
   try {
-    auto file = openvdb::io::File(temporary);
+    auto file = openvdb::io::File(out.temporary);
     file.write({level_set});
     file.close();
   } catch (const std::exception& error) {
-    std::remove(temporary.c_str());
-    throw_io_error(filename, std::string("cannot write: ") + error.what());
+    throw_io_error(
+        filename, std::string("cannot write (") + error.what() + ")");
   }
-  if (std::rename(temporary.c_str(), filename.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw_io_error(filename, "cannot write: rename failed");
-  }
+  commit_file(out);
 }
 
 }  // namespace implicit

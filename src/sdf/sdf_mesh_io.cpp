@@ -10,17 +10,10 @@
 #include <vector>
 
 #include "../util/error.h"
+#include "../util/file.h"
 #include "sdf_grid_file.h"
 
 namespace implicit {
-
-// Lower-case extension of a path, with the dot.
-static std::string path_extension(const std::string& filename) {
-  auto dot = filename.rfind('.');
-  auto ext = dot == std::string::npos ? std::string{} : filename.substr(dot);
-  for (auto& c : ext) c = (char)std::tolower((unsigned char)c);
-  return ext;
-}
 
 // Error "file:line: message".
 [[noreturn]] static void throw_line(

@@ -130,7 +130,7 @@ TEST_CASE("grid mesh OBJ and PLY readers") {
 }
 
 TEST_CASE("grid mesh readers refuse bad files") {
-  CHECK(load_error("empty.obj", "").find("empty file") != std::string::npos);
+  CHECK(load_error("empty.obj", "").find("file is empty") != std::string::npos);
   CHECK(
       load_error("index.obj", "v 0 0 0\nv 1 0 0\nf 1 2 3\n")
           .find(":3: face: vertex index 3 out of range") != std::string::npos);
