@@ -7,23 +7,14 @@
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <set>
 
 #include "../util/error.h"
+#include "../util/file.h"
 
 namespace fs = std::filesystem;
 
 namespace implicit {
-
-// Whole file as bytes.
-static std::string read_bytes(const std::string& filename) {
-  auto stream = std::ifstream(filename, std::ios::binary);
-  if (!stream) throw_io_error(filename, "cannot open file");
-  auto bytes = std::string{std::istreambuf_iterator<char>(stream), {}};
-  if (stream.bad()) throw_io_error(filename, "read error");
-  return bytes;
-}
 
 // Number of leading ".." components of a normalized relative path.
 static int count_parent_steps(const fs::path& path) {
@@ -58,12 +49,12 @@ scene_bundle make_scene_bundle(
   auto bundle    = scene_bundle{};
   bundle.files.push_back(
       {(scene_folder / fs::path(scene_filename).filename()).string(),
-          read_bytes(scene_filename)});
+          read_file(scene_filename)});
   auto seen = std::set<std::string>{};
   for (auto& uri : uris) {
     auto path = (scene_folder / uri).lexically_normal().string();
     if (!seen.insert(path).second) continue;
-    bundle.files.push_back({path, read_bytes((directory / uri).string())});
+    bundle.files.push_back({path, read_file((directory / uri).string())});
   }
   return bundle;
 }
@@ -128,9 +119,7 @@ std::string write_scene_bundle(
     auto path  = fs::path(folder.path) / relative;
     auto error = std::error_code{};
     fs::create_directories(path.parent_path(), error);
-    auto stream = std::ofstream(path, std::ios::binary);
-    stream.write(file.bytes.data(), (std::streamsize)file.bytes.size());
-    if (!stream) throw_io_error(path.string(), "cannot write file");
+    write_file(path.string(), file.bytes);
   }
   return (fs::path(folder.path) / bundle.files.front().path).string();
 }
