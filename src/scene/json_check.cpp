@@ -8,6 +8,7 @@
 #include <new>
 #include <set>
 
+#include "../sdf/sdf_primitives.h"
 #include "../util/error.h"
 
 namespace implicit {
@@ -390,6 +391,92 @@ int parse_json_enum(const json_place& place, const std::string& key,
         "unknown " + key + " \"" + value + "\" (valid " + key +
             "s: " + join_names(names) + ")");
   return (int)(it - names.begin());
+}
+
+// -----------------------------------------------------------------------------
+// VALUE CHECKS
+// -----------------------------------------------------------------------------
+
+// Shortest readable form of a number for messages.
+std::string format_number(float value) { return format_param_value(value); }
+
+static std::string format_vec3(vec3f value) {
+  return "(" + format_number(value.x) + ", " + format_number(value.y) + ", " +
+         format_number(value.z) + ")";
+}
+
+void check_positive(
+    const json_place& place, const std::string& key, float value) {
+  if (!(value > 0))
+    throw_json_error(place, key, "must be > 0, found " + format_number(value));
+}
+
+void check_non_negative(
+    const json_place& place, const std::string& key, float value) {
+  if (!(value >= 0))
+    throw_json_error(place, key, "must be >= 0, found " + format_number(value));
+}
+
+void check_positive(
+    const json_place& place, const std::string& key, vec3f value) {
+  if (!(min(value) > 0))
+    throw_json_error(place, key,
+        "must be > 0 in every component, found " + format_vec3(value));
+}
+
+void check_non_negative(
+    const json_place& place, const std::string& key, vec3f value) {
+  if (!(min(value) >= 0))
+    throw_json_error(place, key,
+        "must be >= 0 in every component, found " + format_vec3(value));
+}
+
+void check_unit_range(
+    const json_place& place, const std::string& key, float value) {
+  if (!(value >= 0 && value <= 1))
+    throw_json_error(
+        place, key, "must be in [0, 1], found " + format_number(value));
+}
+
+// -----------------------------------------------------------------------------
+// FRAMES
+// -----------------------------------------------------------------------------
+
+// Read a 12-number frame that must be invertible (the renderer inverts
+// every frame it uses).
+bool read_invertible_frame(const json_place& place, const json& js,
+    const std::string& key, frame3f& frame) {
+  if (!read_json(place, js, key, frame)) return false;
+  if (!is_invertible(frame))
+    throw_json_error(place, key,
+        "not invertible (its 3x3 part is singular); a frame is 12 numbers: "
+        "x, y, z axes then origin");
+  return true;
+}
+
+// Read `frame` (enclosing space -> local, the seed's convention) or
+// `world_from_local` (local -> enclosing space, stored inverted) as the map
+// from the enclosing space to the local one. False when neither is present.
+bool read_local_frame(
+    const json_place& place, const json& js, frame3f& local_from_outer) {
+  auto has_frame   = js.contains("frame");
+  auto has_inverse = js.contains("world_from_local");
+  if (has_frame && has_inverse)
+    throw_json_error(place, "world_from_local",
+        "conflicts with frame (give either frame, world->local, or "
+        "world_from_local, local->world)");
+  auto frame = frame3f{};
+  if (has_frame) {
+    read_invertible_frame(place, js, "frame", frame);
+    local_from_outer = frame;
+    return true;
+  }
+  if (has_inverse) {
+    read_invertible_frame(place, js, "world_from_local", frame);
+    local_from_outer = inverse(frame);
+    return true;
+  }
+  return false;
 }
 
 }  // namespace implicit

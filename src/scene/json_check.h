@@ -114,4 +114,39 @@ int parse_json_enum(const json_place& place, const std::string& key,
 // Comma-separated list of names for messages.
 std::string join_names(const std::vector<std::string>& names);
 
+// -----------------------------------------------------------------------------
+// VALUE CHECKS
+// -----------------------------------------------------------------------------
+
+// Shortest readable form of a number for messages.
+std::string format_number(float value);
+
+// Each throws naming `key` ("must be > 0, found -1") unless the value (each
+// component of a vec3) is in range.
+void check_positive(
+    const json_place& place, const std::string& key, float value);
+void check_non_negative(
+    const json_place& place, const std::string& key, float value);
+void check_positive(
+    const json_place& place, const std::string& key, vec3f value);
+void check_non_negative(
+    const json_place& place, const std::string& key, vec3f value);
+void check_unit_range(
+    const json_place& place, const std::string& key, float value);
+
+// -----------------------------------------------------------------------------
+// FRAMES
+// -----------------------------------------------------------------------------
+
+// Read a 12-number frame that must be invertible (the renderer inverts
+// every frame it uses); false when `key` is absent.
+bool read_invertible_frame(const json_place& place, const json& js,
+    const std::string& key, frame3f& frame);
+
+// Read `frame` (enclosing space -> local, the seed's convention) or
+// `world_from_local` (local -> enclosing space, stored inverted) as the map
+// from the enclosing space to the local one. False when neither is present.
+bool read_local_frame(
+    const json_place& place, const json& js, frame3f& local_from_outer);
+
 }  // namespace implicit

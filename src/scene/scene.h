@@ -82,10 +82,11 @@ struct environment_data {
 // An analytic SDF object (the seed's `sdfunctions`). The program is evaluated
 // at transform_point(local_from_world, p_world).
 struct sdf_function_data {
-  std::string name             = "";
-  sdf_program program          = {};
-  frame3f     local_from_world = {};
-  int         material         = invalidid;
+  std::string              name             = "";
+  sdf_program              program          = {};
+  frame3f                  local_from_world = {};
+  int                      material         = invalidid;
+  std::vector<std::string> uris = {};  // `.vm` files read, as the scene names
 };
 
 // A grid loaded from a file (the seed's `volumes`); null until loaded. Shared

@@ -31,6 +31,9 @@ scene_bundle make_scene_bundle(
   auto uris = std::vector<std::string>{};
   for (auto& texture : scene.textures) uris.push_back(texture.uri);
   for (auto& volume : scene.volumes) uris.push_back(volume.uri);
+  // The .vm files of expressions.
+  for (auto& sdf : scene.sdfunctions)
+    uris.insert(uris.end(), sdf.uris.begin(), sdf.uris.end());
   // A uri like "../grids/a.sdf" leaves the scene's folder: the scene goes
   // that many folders deep in the bundle, so every file stays inside it.
   auto depth = 0;

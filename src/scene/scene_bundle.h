@@ -25,9 +25,10 @@ struct scene_bundle {
   std::vector<bundle_file> files = {};
 };
 
-// Read the scene file and the files named by the uris of its textures and
-// volumes (relative to the scene's directory). Throws io_error for an
-// unreadable file or an absolute uri (it could not be mirrored).
+// Read the scene file and the files named by the uris of its textures,
+// volumes and expressions' .vm files (relative to the scene's directory).
+// Throws io_error for an unreadable file or an absolute uri (it could not be
+// mirrored).
 scene_bundle make_scene_bundle(
     const std::string& scene_filename, const scene_data& scene);
 

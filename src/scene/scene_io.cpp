@@ -27,7 +27,8 @@
 //   ellipsoid     radii (semi-axes)                      size
 //   octahedron    radius (centre to vertex)              radius
 //
-// Operators nest sdfunction objects (without `material`):
+// Operators nest sdfunction objects (without `material`); their keys, ranges
+// and fields are read from their table (sdf_operator_table.h):
 //
 //   union, intersection, subtraction     operands (>= 2; folded left, so
 //                                        subtraction removes 2.. from 1)
@@ -37,6 +38,27 @@
 //   round                                operand, radius (> 0, added)
 //   onion                                operand, thickness (> 0, half shell)
 //   transform                            operand, frame or world_from_local
+//   twist                                operand, k (radians per unit of y)
+//   bend                                 operand, k (radians per unit of x)
+//   repeat                               operand, spacing ([3] >= 0, one
+//                                        > 0; 0: not repeated on that axis),
+//                                        limit ([3] integers >= 0, copies
+//                                        each side; absent: endless)
+//   elongate                             operand, h ([3] >= 0)
+//   mirror                               operand, axes ("x", "xz", ...)
+//   expression                           expression (infix, sdf_expression.h)
+//                                        or uri (a .vm file, sdf_vm_io.h,
+//                                        relative to the scene); operands
+//                                        (named objects the formula uses);
+//                                        bounds ([[x0,y0,z0],[x1,y1,z1]]:
+//                                        the surface is clipped to the box)
+//   displace                             operand, expression (added to it)
+//
+// Math clauses are no types: "add" is refused and "round" is the CSG
+// rounding. `.vm` files are read while the sdfunction is parsed (they define
+// its nodes), grids and textures after the whole JSON is checked. Objects
+// are walked with an explicit stack (scene_io_sdf.cpp): nesting is bounded
+// only by the JSON parser's max_json_depth (json_check.h).
 //
 // Frames. `frame` maps the enclosing space into the object's local space: at
 // the top level that is the seed's world->local convention (stored as
@@ -62,100 +84,17 @@
 #include "../util/error.h"
 #include "../util/file.h"
 #include "json_check.h"
+#include "scene_io_sdf.h"
 
 namespace implicit {
 
 // -----------------------------------------------------------------------------
-// VALUE CHECKS
+// REFERENCES
 // -----------------------------------------------------------------------------
-
-// Shortest readable form of a number for messages.
-static std::string format_number(float value) {
-  return format_param_value(value);
-}
-
-static std::string format_vec3(vec3f value) {
-  return "(" + format_number(value.x) + ", " + format_number(value.y) + ", " +
-         format_number(value.z) + ")";
-}
 
 // "1 texture", "3 textures".
 static std::string count_of(size_t count, const std::string& noun) {
   return std::to_string(count) + " " + noun + (count == 1 ? "" : "s");
-}
-
-static void check_positive(
-    const json_place& place, const std::string& key, float value) {
-  if (!(value > 0))
-    throw_json_error(place, key, "must be > 0, found " + format_number(value));
-}
-
-static void check_non_negative(
-    const json_place& place, const std::string& key, float value) {
-  if (!(value >= 0))
-    throw_json_error(place, key, "must be >= 0, found " + format_number(value));
-}
-
-static void check_positive(
-    const json_place& place, const std::string& key, vec3f value) {
-  if (!(min(value) > 0))
-    throw_json_error(place, key,
-        "must be > 0 in every component, found " + format_vec3(value));
-}
-
-static void check_non_negative(
-    const json_place& place, const std::string& key, vec3f value) {
-  if (!(min(value) >= 0))
-    throw_json_error(place, key,
-        "must be >= 0 in every component, found " + format_vec3(value));
-}
-
-static void check_unit_range(
-    const json_place& place, const std::string& key, float value) {
-  if (!(value >= 0 && value <= 1))
-    throw_json_error(
-        place, key, "must be in [0, 1], found " + format_number(value));
-}
-
-// -----------------------------------------------------------------------------
-// FRAMES AND REFERENCES
-// -----------------------------------------------------------------------------
-
-// Read a 12-number frame that must be invertible (the renderer inverts
-// every frame it uses).
-static bool read_invertible_frame(const json_place& place, const json& js,
-    const std::string& key, frame3f& frame) {
-  if (!read_json(place, js, key, frame)) return false;
-  if (!is_invertible(frame))
-    throw_json_error(place, key,
-        "not invertible (its 3x3 part is singular); a frame is 12 numbers: "
-        "x, y, z axes then origin");
-  return true;
-}
-
-// Read `frame` (enclosing space -> local, the seed's convention) or
-// `world_from_local` (local -> enclosing space, stored inverted) as the map
-// from the enclosing space to the local one. False when neither is present.
-static bool read_local_frame(
-    const json_place& place, const json& js, frame3f& local_from_outer) {
-  auto has_frame   = js.contains("frame");
-  auto has_inverse = js.contains("world_from_local");
-  if (has_frame && has_inverse)
-    throw_json_error(place, "world_from_local",
-        "conflicts with frame (give either frame, world->local, or "
-        "world_from_local, local->world)");
-  auto frame = frame3f{};
-  if (has_frame) {
-    read_invertible_frame(place, js, "frame", frame);
-    local_from_outer = frame;
-    return true;
-  }
-  if (has_inverse) {
-    read_invertible_frame(place, js, "world_from_local", frame);
-    local_from_outer = inverse(frame);
-    return true;
-  }
-  return false;
 }
 
 // Read a reference to one of `count` elements of `array` (a 0-based index).
@@ -200,206 +139,12 @@ static int read_material_texture(const json_place& place, const json& js,
 // SDFUNCTIONS
 // -----------------------------------------------------------------------------
 
-// Evaluation recurses once per nesting level; a bound keeps hostile files
-// from overflowing the stack.
-static constexpr int max_sdf_depth = 64;
-
-// JSON parameter keys of each type (see the table at the top; primitives
-// list theirs in sdf_primitives.h).
-static std::vector<std::string> sdf_parameter_keys(sdf_type type) {
-  switch (type) {
-    IMPLICIT_SDF_PRIMITIVE_CASES {
-      auto keys = std::vector<std::string>{};
-      for (auto& param : primitive_params(type)) keys.push_back(param.key);
-      return keys;
-    }
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction: return {"operands"};
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction: return {"operands", "blend"};
-    case sdf_type::op_round: return {"operand", "radius"};
-    case sdf_type::op_onion: return {"operand", "thickness"};
-    case sdf_type::op_transform:
-      return {"operand"};
-      IMPLICIT_SDF_WARP_CASES
-      IMPLICIT_SDF_MATH_CASES return {};
-  }
-  return {};
-}
-
-// A required parameter that must be > 0.
-static float read_positive_parameter(
-    const json_place& place, const json& js, const std::string& key) {
-  auto value = 0.0f;
-  read_json_required(place, js, key, value, "missing required parameter");
-  check_positive(place, key, value);
-  return value;
-}
-
-// A required parameter that must be >= 0.
-static float read_non_negative_parameter(
-    const json_place& place, const json& js, const std::string& key) {
-  auto value = 0.0f;
-  read_json_required(place, js, key, value, "missing required parameter");
-  check_non_negative(place, key, value);
-  return value;
-}
-
-// Read the parameters of a primitive node, in the order of its table entry,
-// then check them together.
-static void parse_primitive_params(
-    const json_place& place, const json& js, sdf_node& node) {
-  for (auto& param : primitive_params(node.type)) {
-    auto positive = param.range == sdf_param_range::positive;
-    auto read     = [&] {
-      return positive ? read_positive_parameter(place, js, param.key)
-                          : read_non_negative_parameter(place, js, param.key);
-    };
-    switch (param.field) {
-      case sdf_param_field::size: {
-        auto size = vec3f{};
-        read_json_required(
-            place, js, param.key, size, "missing required parameter");
-        if (positive) {
-          check_positive(place, param.key, size);
-        } else {
-          check_non_negative(place, param.key, size);
-        }
-        node.size = size;
-        break;
-      }
-      case sdf_param_field::radius: node.radius = read(); break;
-      case sdf_param_field::radius2: node.radius2 = read(); break;
-      case sdf_param_field::height: node.height = read(); break;
-      case sdf_param_field::thickness: node.thickness = read(); break;
-    }
-  }
-  auto problem = check_primitive(node);
-  if (problem.key) throw_json_error(place, problem.key, problem.problem);
-}
-
-static int parse_sdf_shape(const json_place& place, const json& js,
-    sdf_program& program, int depth, const std::vector<std::string>& keys);
-
-// Parse a nested sdfunction object; its own frame becomes a transform node.
-static int parse_sdf_operand(
-    const json_place& place, const json& js, sdf_program& program, int depth) {
-  check_json_object(place, js);
-  if (depth > max_sdf_depth)
-    throw_json_error(place, "",
-        "sdfunctions nested deeper than " + std::to_string(max_sdf_depth) +
-            " levels");
-  auto name = std::string{};
-  read_json(place, js, "name", name);
-  auto root = parse_sdf_shape(
-      place, js, program, depth, {"name", "type", "frame", "world_from_local"});
-  auto child_from_parent = frame3f{};
-  if (read_local_frame(place, js, child_from_parent))
-    root = add_transform(program, root, child_from_parent);
-  return root;
-}
-
-// Parse the `operand` of a unary operator.
-static int parse_sdf_unary_operand(
-    const json_place& place, const json& js, sdf_program& program, int depth) {
-  auto it = js.find("operand");
-  if (it == js.end())
-    throw_json_error(place, "operand", "missing required parameter");
-  return parse_sdf_operand(
-      json_child(place, "operand"), *it, program, depth + 1);
-}
-
-// Parse the `operands` of a binary operator and combine them with `op`
-// (fold_sdf_operands: folded left, smooth unions and intersections
-// balanced).
-static int parse_sdf_operands(const json_place& place, const json& js,
-    sdf_program& program, int depth, const sdf_node& op) {
-  auto operands = find_json_array(place, js, "operands");
-  if (!operands)
-    throw_json_error(place, "operands", "missing required parameter");
-  if (operands->size() < 2)
-    throw_json_error(place, "operands",
-        "expected at least 2 operands, found " +
-            std::to_string(operands->size()));
-  // Refuse a model whose nodes could not be indexed (or allocated) before
-  // reading it: one node per operand and one per operator at least.
-  if (program.nodes.size() + 2 * operands->size() > (size_t)sdf_max_nodes)
-    throw_json_error(place, "operands",
-        "too many operands: " + std::to_string(operands->size()) +
-            " would make the model larger than " +
-            std::to_string(sdf_max_nodes) + " nodes");
-  auto operands_place = json_child(place, "operands");
-  auto operand_place  = [&](size_t i) {
-    return json_element(operands_place, i, (*operands)[i]);
-  };
-  auto roots = std::vector<int>{};
-  roots.reserve(operands->size());
-  for (size_t i = 0; i < operands->size(); i++)
-    roots.push_back(parse_sdf_operand(
-        operand_place(i), (*operands)[i], program, depth + 1));
-  return fold_sdf_operands(program, roots, op);
-}
-
-// Parse the type, parameters and operands of an sdfunction object (not its
-// frame) into `program`, operands first; returns the root node. `keys` are
-// the keys allowed besides the type's parameters.
-static int parse_sdf_shape(const json_place& place, const json& js,
-    sdf_program& program, int depth, const std::vector<std::string>& keys) {
-  auto type_name = std::string{};
-  read_json_required(place, js, "type", type_name);
-  auto type =
-      (sdf_type)parse_json_enum(place, "type", type_name, sdf_type_names);
-  auto valid = keys;
-  for (auto& key : sdf_parameter_keys(type)) valid.push_back(key);
-  check_json_keys(place, js, valid, " for type \"" + type_name + "\"");
-
-  auto node = sdf_node{};
-  node.type = type;
-  switch (type) {
-    IMPLICIT_SDF_PRIMITIVE_CASES
-    parse_primitive_params(place, js, node);
-    break;
-    case sdf_type::op_union:
-    case sdf_type::op_intersection:
-    case sdf_type::op_subtraction:
-      return parse_sdf_operands(place, js, program, depth, node);
-    case sdf_type::op_smooth_union:
-    case sdf_type::op_smooth_intersection:
-    case sdf_type::op_smooth_subtraction:
-      node.blend = read_positive_parameter(place, js, "blend");
-      return parse_sdf_operands(place, js, program, depth, node);
-    case sdf_type::op_round:
-      node.radius = read_positive_parameter(place, js, "radius");
-      node.left   = parse_sdf_unary_operand(place, js, program, depth);
-      break;
-    case sdf_type::op_onion:
-      node.thickness = read_positive_parameter(place, js, "thickness");
-      node.left      = parse_sdf_unary_operand(place, js, program, depth);
-      break;
-    case sdf_type::op_transform:
-      // The caller turns the frame into a transform (or local_from_world).
-      if (!js.contains("frame") && !js.contains("world_from_local"))
-        throw_json_error(place, "frame",
-            "missing required key (a transform needs frame or "
-            "world_from_local)");
-      return parse_sdf_unary_operand(place, js, program, depth);
-      IMPLICIT_SDF_WARP_CASES
-      IMPLICIT_SDF_MATH_CASES
-      throw_json_error(
-          place, "type", "\"" + type_name + "\" is not supported yet");
-  }
-  return add_node(program, node);
-}
-
-// Parse one element of `sdfunctions`.
-static sdf_function_data parse_sdfunction(
-    const json_place& place, const json& js, size_t num_materials) {
+// Parse one element of `sdfunctions` (its objects: scene_io_sdf.cpp).
+static sdf_function_data parse_sdfunction(const json_place& place,
+    const json& js, size_t num_materials, const sdf_file_context& files) {
   auto sdf = sdf_function_data{};
   read_json(place, js, "name", sdf.name);
-  parse_sdf_shape(place, js, sdf.program, 0,
-      {"name", "type", "material", "frame", "world_from_local"});
+  parse_sdf_object(place, js, sdf.program, files, sdf.uris);
   read_local_frame(place, js, sdf.local_from_world);
   sdf.material =
       read_reference(place, js, "material", num_materials, "material", true);
@@ -659,10 +404,14 @@ scene_data parse_scene(const std::string& text, const std::string& filename,
         scene.vol_instances.push_back(
             parse_vol_instance(place, element, num_volumes, num_materials));
       });
+  // `.vm` files are read with their sdfunction: they define its nodes.
+  auto files       = sdf_file_context{};
+  files.directory  = std::filesystem::path(filename).parent_path().string();
+  files.load_files = load_files;
   parse_array(top, js, "sdfunctions",
       [&](const json_place& place, const json& element) {
         scene.sdfunctions.push_back(
-            parse_sdfunction(place, element, num_materials));
+            parse_sdfunction(place, element, num_materials, files));
       });
   if (!load_files) return scene;
 
