@@ -11,7 +11,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
-all=(fuzz_scene fuzz_sdfgen fuzz_skanti fuzz_vol fuzz_vdb fuzz_obj fuzz_ply
+all=(fuzz_scene fuzz_expression fuzz_vm fuzz_sdfgen fuzz_skanti fuzz_vol fuzz_vdb fuzz_obj fuzz_ply
   fuzz_png fuzz_jpg fuzz_hdr fuzz_exr fuzz_tga fuzz_bmp)
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=("${all[@]}")
