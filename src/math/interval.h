@@ -179,25 +179,57 @@ inline interval checked(float lo, float hi) {
 }
 
 inline interval math_neg(interval a) { return {-a.hi, -a.lo}; }
+// Sums, differences, products and quotients rounded down and up. A result
+// that cannot be inexact stays put: an operand 0 (x + 0, 0 * x, 0 / x) or a
+// sum of 0 (x - x; with subnormals a nonzero sum never rounds to 0). So
+// [0, 1] + [0, 1] starts at 0, not at -2^-149, which ln or sqrt would take
+// for a possible negative.
+inline float add_down(float a, float b) {
+  auto s = a + b;
+  return a == 0 || b == 0 || s == 0 ? s : float_down(s, 1);
+}
+inline float add_up(float a, float b) {
+  auto s = a + b;
+  return a == 0 || b == 0 || s == 0 ? s : float_up(s, 1);
+}
+inline float mul_down(float a, float b) {
+  auto p = a * b;
+  return a == 0 || b == 0 ? p : float_down(p, 1);
+}
+inline float mul_up(float a, float b) {
+  auto p = a * b;
+  return a == 0 || b == 0 ? p : float_up(p, 1);
+}
+inline float div_down(float a, float b) {
+  auto q = a / b;
+  return a == 0 ? q : float_down(q, 1);
+}
+inline float div_up(float a, float b) {
+  auto q = a / b;
+  return a == 0 ? q : float_up(q, 1);
+}
+
 inline interval math_add(interval a, interval b) {
-  return outward(a.lo + b.lo, a.hi + b.hi, 1);
+  return checked(add_down(a.lo, b.lo), add_up(a.hi, b.hi));
 }
 inline interval math_sub(interval a, interval b) {
-  return outward(a.lo - b.hi, a.hi - b.lo, 1);
+  return checked(add_down(a.lo, -b.hi), add_up(a.hi, -b.lo));
 }
 // Products of the corners; math_min/max keep a NaN corner (0 * inf).
 inline interval math_mul(interval a, interval b) {
-  auto p0 = a.lo * b.lo, p1 = a.lo * b.hi, p2 = a.hi * b.lo, p3 = a.hi * b.hi;
-  return outward(math_min(math_min(p0, p1), math_min(p2, p3)),
-      math_max(math_max(p0, p1), math_max(p2, p3)), 1);
+  return checked(math_min(math_min(mul_down(a.lo, b.lo), mul_down(a.lo, b.hi)),
+                     math_min(mul_down(a.hi, b.lo), mul_down(a.hi, b.hi))),
+      math_max(math_max(mul_up(a.lo, b.lo), mul_up(a.lo, b.hi)),
+          math_max(mul_up(a.hi, b.lo), mul_up(a.hi, b.hi))));
 }
 // A divisor that may be 0 gives entire: x / +0 and x / -0 are infinities of
 // opposite signs and 0 / 0 is NaN, and an interval cannot tell -0 from +0.
 inline interval math_div(interval a, interval b) {
   if (b.lo <= 0 && b.hi >= 0) return entire_interval;
-  auto q0 = a.lo / b.lo, q1 = a.lo / b.hi, q2 = a.hi / b.lo, q3 = a.hi / b.hi;
-  return outward(math_min(math_min(q0, q1), math_min(q2, q3)),
-      math_max(math_max(q0, q1), math_max(q2, q3)), 1);
+  return checked(math_min(math_min(div_down(a.lo, b.lo), div_down(a.lo, b.hi)),
+                     math_min(div_down(a.hi, b.lo), div_down(a.hi, b.hi))),
+      math_max(math_max(div_up(a.lo, b.lo), div_up(a.lo, b.hi)),
+          math_max(div_up(a.hi, b.lo), div_up(a.hi, b.hi))));
 }
 inline interval operator-(interval a) { return math_neg(a); }
 inline interval operator+(interval a, interval b) { return math_add(a, b); }
@@ -214,7 +246,7 @@ inline interval math_abs(interval a) {
 inline interval math_square(interval a) {
   if (is_entire(a)) return a;
   auto m = math_abs(a);
-  return {std::max(0.0f, float_down(m.lo * m.lo, 1)), float_up(m.hi * m.hi, 1)};
+  return {std::max(0.0f, mul_down(m.lo, m.lo)), mul_up(m.hi, m.hi)};
 }
 // sqrt of a negative is NaN.
 inline interval math_sqrt(interval a) {

@@ -301,6 +301,15 @@ TEST_CASE("interval: bounds are tight where they can be") {
   auto sum = math_add(interval{1, 1}, interval{2, 2});
   CHECK(sum.lo == float_down(3, 1));
   CHECK(sum.hi == float_up(3, 1));
+  // Exact results stay put: a sum or product from 0 starts at 0, so ln and
+  // sqrt of sums of squares and exponentials see no negative.
+  CHECK(math_add(interval{0, 1}, interval{0, 1}).lo == 0);
+  CHECK(math_sub(interval{2, 3}, interval{2, 2}).lo == 0);
+  CHECK(math_mul(interval{0, 1}, interval{0, 1}).lo == 0);
+  auto tiny = interval{0, 1e-44f};
+  CHECK(!is_entire(math_log(math_add(tiny, tiny))));
+  auto square = math_square(interval{-1, 1});
+  CHECK(!is_entire(math_sqrt(math_add(square, square))));
   CHECK(math_floor(interval{1.2f, 1.7f}) == interval{1, 1});
   CHECK(math_compare(interval{0, 1}, interval{2, 3}) == interval{-1, -1});
   CHECK(math_compare(interval{0, 2}, interval{2, 3}) == interval{-1, 0});
