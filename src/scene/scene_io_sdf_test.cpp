@@ -202,7 +202,7 @@ TEST_CASE("scene_io_sdf: .vm files") {
       true, scene_file);
   CHECK(starts_with(missing, scene_file + ": sdfunctions[0] (\"m\").uri: " +
                                  (folder.path / "models/none.vm").string() +
-                                 ": cannot open file"));
+                                 ": cannot open"));
 }
 
 TEST_CASE("scene_io_sdf: errors name the element, key and place") {

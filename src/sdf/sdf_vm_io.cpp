@@ -4,11 +4,6 @@
 
 #include <charconv>
 #include <cmath>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string_view>
 #include <system_error>
 #include <unordered_map>
@@ -163,32 +158,13 @@ int parse_vm(sdf_program& program, const std::string& text,
 }
 
 int load_vm(sdf_program& program, const std::string& filename) {
-  auto error = std::error_code{};
-  if (std::filesystem::is_directory(filename, error))
-    throw_io_error(filename, "is a folder, not a .vm file");
-  auto stream = std::ifstream(filename, std::ios::binary);
-  if (!stream)
-    throw_io_error(filename,
-        std::string{"cannot open file ("} + std::strerror(errno) + ")");
-  auto size = std::filesystem::file_size(filename, error);
-  if (!error && size > (uintmax_t)vm_max_file_bytes)
-    throw_io_error(filename, "is " + std::to_string(size >> 20) +
+  auto file = mapped_file{filename};
+  if ((long long)file.size > vm_max_file_bytes)
+    throw_io_error(filename, "is " + std::to_string(file.size >> 20) +
                                  " MiB, more than a .vm file may be (" +
                                  std::to_string(vm_max_file_bytes >> 20) +
                                  " MiB)");
-  auto text  = std::string{};
-  auto chunk = std::vector<char>(1 << 16);
-  while (stream) {
-    stream.read(chunk.data(), (std::streamsize)chunk.size());
-    text.append(chunk.data(), (size_t)stream.gcount());
-    // Files that grow while read, or special files without a size.
-    if ((long long)text.size() > vm_max_file_bytes)
-      throw_io_error(filename, "is more than " +
-                                   std::to_string(vm_max_file_bytes >> 20) +
-                                   " MiB, more than a .vm file may be");
-  }
-  if (stream.bad()) throw_io_error(filename, "read error");
-  return parse_vm(program, text, filename);
+  return parse_vm(program, std::string(file.data, file.size), filename);
 }
 
 // -----------------------------------------------------------------------------
@@ -243,21 +219,7 @@ void save_vm(const std::string& filename, const sdf_program& program) {
   try {
     text = format_vm(program, root_node(program));
   } catch (const io_error& error) { throw_io_error(filename, error.what()); }
-  auto temporary = temporary_path(filename);
-  auto file      = std::fopen(temporary.c_str(), "wb");
-  if (!file)
-    throw_io_error(
-        filename, std::string{"cannot write ("} + std::strerror(errno) + ")");
-  auto written = std::fwrite(text.data(), 1, text.size(), file) == text.size();
-  if (std::fclose(file) != 0 || !written) {
-    std::remove(temporary.c_str());
-    throw_io_error(filename, "write error");
-  }
-  if (std::rename(temporary.c_str(), filename.c_str()) != 0) {
-    auto reason = std::string{std::strerror(errno)};
-    std::remove(temporary.c_str());
-    throw_io_error(filename, "cannot rename the written file (" + reason + ")");
-  }
+  write_file(filename, text);
 }
 
 }  // namespace implicit

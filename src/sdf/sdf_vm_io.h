@@ -44,7 +44,7 @@ inline constexpr long long vm_max_file_bytes = 256ll << 20;
 std::string format_vm(const sdf_program& program, int root);
 
 // Write format_vm() of the program's root to `filename` (whole or not at
-// all: a temporary file renamed).
+// all: write_file of util/file.h).
 void save_vm(const std::string& filename, const sdf_program& program);
 
 }  // namespace implicit

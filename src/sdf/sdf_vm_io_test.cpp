@@ -233,12 +233,12 @@ TEST_CASE("sdf_vm: format, save and load round trip") {
   try {
     load_vm(loaded, (directory / "missing.vm").string());
   } catch (const io_error& error) { missing = error.what(); }
-  CHECK(missing.find("missing.vm: cannot open file") != std::string::npos);
+  CHECK(missing.find("missing.vm: cannot open") != std::string::npos);
   auto folder = std::string{};
   try {
     load_vm(loaded, directory.string());
   } catch (const io_error& error) { folder = error.what(); }
-  CHECK(folder == directory.string() + ": is a folder, not a .vm file");
+  CHECK(folder.rfind(directory.string() + ": cannot open", 0) == 0);
   std::filesystem::remove_all(directory);
 }
 
