@@ -38,11 +38,14 @@
 
 #include "image/image_io.h"
 #include "scene/scene_io.h"
+#include "sdf/sdf_expression.h"
 #include "sdf/sdf_grid.h"
 #include "sdf/sdf_grid_io.h"
 #include "sdf/sdf_mesh.h"
 #include "sdf/sdf_mesh_io.h"
+#include "sdf/sdf_operator_table.h"
 #include "sdf/sdf_program.h"
+#include "sdf/sdf_vm_io.h"
 #include "trace/render.h"
 #include "trace/render_options.h"
 #include "util/error.h"
@@ -452,20 +455,30 @@ void step_renderer(
 // -----------------------------------------------------------------------------
 
 // An SDF compiled by the scene parser: one program in world space (the
-// sdfunction's own frame folded in as a transform node).
+// sdfunction's own frame folded in as a transform node), and its tape,
+// compiled once on the first evaluation.
 struct py_sdf {
-  sdf_program program = {};
+  sdf_program                     program = {};
+  std::shared_ptr<const sdf_tape> tape    = {};
 };
+
+// The SDF's tape (compiled on first use, with the GIL held).
+const sdf_tape& sdf_tape_of(py_sdf& sdf) {
+  if (!sdf.tape)
+    sdf.tape = std::make_shared<const sdf_tape>(make_sdf_tape(sdf.program));
+  return *sdf.tape;
+}
 
 bool is_identity(const frame3f& f) {
   return f.x == identity_frame.x && f.y == identity_frame.y &&
          f.z == identity_frame.z && f.o == identity_frame.o;
 }
 
-// Compile the single sdfunction of a scene given as JSON text.
+// Compile the single sdfunction of a scene given as JSON text (its `.vm`
+// files read relative to `filename`).
 py_sdf compile_sdf(const std::string& text, const std::string& filename) {
   auto warnings = std::vector<std::string>{};
-  auto scene    = parse_scene(text, filename, warnings, false);
+  auto scene    = parse_scene(text, filename, warnings, true);
   if (scene.sdfunctions.size() != 1)
     throw_io_error(filename, "expected exactly one sdfunction, found " +
                                  std::to_string(scene.sdfunctions.size()));
@@ -484,11 +497,12 @@ using c_array = py::array_t<T, py::array::c_style | py::array::forcecast>;
 
 // Distances at an (N, 3) C-contiguous array of points.
 template <typename T>
-py::array_t<T> eval_points(const py_sdf& sdf, const c_array<T>& points) {
-  auto count  = (size_t)points.shape(0);
-  auto result = py::array_t<T>((py::ssize_t)count);
-  auto in     = points.data();
-  auto out    = result.mutable_data();
+py::array_t<T> eval_points(py_sdf& sdf, const c_array<T>& points) {
+  auto& tape   = sdf_tape_of(sdf);
+  auto  count  = (size_t)points.shape(0);
+  auto  result = py::array_t<T>((py::ssize_t)count);
+  auto  in     = points.data();
+  auto  out    = result.mutable_data();
   {
     py::gil_scoped_release release;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096),
@@ -496,14 +510,14 @@ py::array_t<T> eval_points(const py_sdf& sdf, const c_array<T>& points) {
           for (auto i = range.begin(); i < range.end(); i++) {
             auto p = vec3f{
                 (float)in[3 * i], (float)in[3 * i + 1], (float)in[3 * i + 2]};
-            out[i] = (T)eval_sdf(sdf.program, p);
+            out[i] = (T)eval_sdf(tape, p);
           }
         });
   }
   return result;
 }
 
-py::array eval_sdf_array(const py_sdf& sdf, const py::array& points) {
+py::array eval_sdf_array(py_sdf& sdf, const py::array& points) {
   if (points.ndim() != 2 || points.shape(1) != 3)
     throw py::value_error(
         "eval: expected points of shape (N, 3), found " + shape_text(points));
@@ -516,6 +530,51 @@ py::array eval_sdf_array(const py_sdf& sdf, const py::array& points) {
           points);
   if (!doubles) throw py::type_error("eval: the points must be numbers");
   return eval_points(sdf, doubles);
+}
+
+// The operator table (sdf_operator_table.h) as a list of dicts: name,
+// help, and keys (key, type, range, required, help), for the Python layer's
+// checks and documentation.
+py::list operator_table() {
+  auto ranges = std::vector<std::string>{"any", "positive", "non_negative"};
+  auto table  = py::list{};
+  for (auto& op : sdf_operators) {
+    auto keys = py::list{};
+    for (auto& key : op.keys) {
+      auto row        = py::dict{};
+      row["key"]      = key.key;
+      row["type"]     = sdf_key_type_names[(int)key.type];
+      row["range"]    = ranges[(int)key.range];
+      row["required"] = key.required;
+      row["help"]     = key.help;
+      keys.append(row);
+    }
+    auto row    = py::dict{};
+    row["name"] = op.name;
+    row["help"] = op.help;
+    row["keys"] = keys;
+    table.append(row);
+  }
+  return table;
+}
+
+// Parse a formula whose other names are `names`, for the Python layer's
+// early errors: io_error "column C: ..." or "name: not used ...".
+void check_expression(
+    const std::string& text, const std::vector<std::string>& names) {
+  auto program  = sdf_program{};
+  auto operands = std::vector<sdf_expression_operand>{};
+  for (auto& name : names) {
+    if (!is_expression_operand_name(name))
+      throw io_error(name +
+                     ": not an operand name (letters, digits and _, not "
+                     "first a digit; not x, y, z, pi or a function)");
+    operands.push_back({name, add_node(program, sdf_node{})});
+  }
+  parse_sdf_expression(program, text, operands);
+  for (auto& operand : operands)
+    if (operand.uses == 0)
+      throw io_error(operand.name + ": not used by the expression");
 }
 
 py::tuple bounds_tuple(const bbox3f& box) {
@@ -697,6 +756,12 @@ PYBIND11_MODULE(_implicit, m) {
           py::arg("filename"), py::arg("voxel"), py::arg("pad"),
           py::arg("bounds"))
       .def(
+          "save_vm",
+          [](const py_sdf& sdf, const std::string& filename) {
+            save_vm(filename, sdf.program);
+          },
+          py::arg("filename"))
+      .def(
           "save_grid",
           [](const py_sdf& sdf, const std::string& filename, float voxel,
               int pad, const py::object& bounds, bool binary) {
@@ -707,4 +772,15 @@ PYBIND11_MODULE(_implicit, m) {
           py::arg("filename"), py::arg("voxel"), py::arg("pad"),
           py::arg("bounds"), py::arg("binary"));
   m.def("compile_sdf", &compile_sdf, py::arg("text"), py::arg("filename"));
+  m.def("sdf_operators", &operator_table);
+  m.def(
+      "check_expression", &check_expression, py::arg("text"), py::arg("names"));
+  m.def(
+      "check_vm",
+      [](const std::string& filename) {
+        auto program = sdf_program{};
+        load_vm(program, filename);
+      },
+      py::arg("filename"));
+  m.attr("sdf_expression_functions") = sdf_expression_functions;
 }

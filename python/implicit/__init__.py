@@ -20,12 +20,15 @@ from . import _implicit
 from ._implicit import Error
 from .render import (Image, LoadedScene, Renderer, default_options,
                      load_image, load_scene, option_help, render, save_image)
+from .functions import (acos, asin, atan, atan2, ceil, clamp, cos, exp,
+                        floor, log, max, min, mix, mod, sin, sqrt, square,
+                        tan, x, y, z)
 from .scene import MATERIAL_TYPES, Scene, lookat
 from .sdf import (ORIGIN, SDF, UP, X, Y, Z, box, box_frame, capped_cone,
                   capped_cylinder, capsule, cylinder, difference, ellipsoid,
-                  from_json, intersection, octahedron, orientation, plane,
-                  rotation, rounded_box, scaling, sphere, torus, translation,
-                  union, wireframe_box, write_stl)
+                  expression, from_json, intersection, load_vm, octahedron,
+                  orientation, plane, rotation, rounded_box, scaling, sphere,
+                  torus, translation, union, wireframe_box, write_stl)
 
 Error.__module__ = "implicit"
 SHADERS = tuple(_implicit.shader_names)
@@ -39,4 +42,7 @@ __all__ = [
     "difference", "ellipsoid", "from_json", "intersection", "octahedron",
     "orientation", "plane", "rotation", "rounded_box", "scaling", "sphere",
     "torus", "translation", "union", "wireframe_box", "write_stl", "SHADERS",
+    "expression", "load_vm", "x", "y", "z", "sqrt", "sin", "cos", "tan",
+    "asin", "acos", "atan", "atan2", "exp", "log", "floor", "ceil", "square",
+    "min", "max", "mod", "clamp", "mix",
 ]

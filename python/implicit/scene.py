@@ -29,6 +29,21 @@ _MATERIAL_TEXTURES = ("emission_tex", "color_tex", "roughness_tex",
                       "scattering_tex", "normal_tex")
 
 
+def _relative_expression_uris(sdfunctions, directory):
+    """Make the `.vm` uris of expression objects, however deeply nested,
+    relative to `directory` (in place; an explicit stack, no recursion)."""
+    stack = list(sdfunctions)
+    while stack:
+        value = stack.pop()
+        if isinstance(value, list):
+            stack.extend(value)
+        elif isinstance(value, dict):
+            if value.get("type") == "expression" and "uri" in value:
+                value["uri"] = os.path.relpath(
+                    value["uri"], directory).replace(os.sep, "/")
+            stack.extend(value.values())
+
+
 def lookat(eye, target, up=UP):
     """The camera frame at `eye` looking at `target` (12 numbers: x, y, z
     axes then origin; the camera looks down its -z, as Yocto/GL's)."""
@@ -229,6 +244,9 @@ class Scene:
                 ("sdfunctions", self.sdfunctions)):
             if elements:
                 scene[key] = json.loads(json.dumps(elements))
+        if directory is not None:
+            _relative_expression_uris(scene.get("sdfunctions", []),
+                                      directory)
         return scene
 
     def to_json(self, directory=None):

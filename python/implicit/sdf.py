@@ -26,7 +26,7 @@ import os
 
 import numpy as np
 
-from . import _implicit
+from . import _expression, _implicit
 
 X = (1.0, 0.0, 0.0)
 Y = (0.0, 1.0, 0.0)
@@ -177,24 +177,36 @@ def _frame_matrix(frame):
 class SDF:
     """A signed distance expression (immutable).
 
-    `node` is its JSON object in the scene format; `to_json()` returns it.
+    Its JSON object in the scene format is what `to_json()` returns. Math
+    expressions (`x + 2 * sphere(1)`) keep a syntax tree and become an
+    `expression` object when first needed (_expression.py).
     """
 
-    __slots__ = ("_node", "_k", "_compiled")
+    __slots__ = ("_node", "_k", "_compiled", "_tree", "_math")
+    # NumPy scalars defer arithmetic with an SDF to the SDF's operators.
+    __array_ufunc__ = None
 
-    def __init__(self, node, k=None):
+    def __init__(self, node, k=None, *, math=False, tree=None):
         self._node = node
         self._k = k
         self._compiled = None
+        self._tree = tree
+        self._math = bool(math)
+
+    def _json(self):
+        """The JSON object (built from the syntax tree on first use)."""
+        if self._node is None:
+            self._node = _expression.to_node(self._tree)
+        return self._node
 
     # ---- JSON ----
 
     def to_json(self):
         """The expression as an `sdfunctions` element (without material)."""
-        return json.loads(json.dumps(self._node))
+        return json.loads(json.dumps(self._json()))
 
     def __repr__(self):
-        text = json.dumps(self._node)
+        text = json.dumps(self._json())
         if len(text) > 120:
             text = text[:117] + "..."
         return f"SDF({text})"
@@ -203,18 +215,16 @@ class SDF:
 
     def k(self, k=None):
         """A copy whose blends with it as the right operand are smooth."""
-        return SDF(self._node, None if k is None else _positive("k", k))
+        return SDF(self._node, None if k is None else _positive("k", k),
+                   math=self._math, tree=self._tree)
 
-    # ---- operators ----
+    # ---- CSG operators ----
 
     def __or__(self, other):
         return union(self, other)
 
     def __and__(self, other):
         return intersection(self, other)
-
-    def __sub__(self, other):
-        return difference(self, other)
 
     def union(self, *others, k=None):
         return union(self, *others, k=k)
@@ -225,12 +235,57 @@ class SDF:
     def difference(self, *others, k=None):
         return difference(self, *others, k=k)
 
+    # ---- arithmetic (math expressions) ----
+
+    def __add__(self, other):
+        return _arithmetic("+", self, other)
+
+    def __radd__(self, other):
+        return _arithmetic("+", other, self)
+
+    def __sub__(self, other):
+        """Two shapes: their difference (fogleman/sdf). Otherwise, when a
+        number or a math expression is involved: arithmetic."""
+        if isinstance(other, SDF) and not self._math and not other._math:
+            return difference(self, other)
+        return _arithmetic("-", self, other)
+
+    def __rsub__(self, other):
+        return _arithmetic("-", other, self)
+
+    def __mul__(self, other):
+        return _arithmetic("*", self, other)
+
+    def __rmul__(self, other):
+        return _arithmetic("*", other, self)
+
+    def __truediv__(self, other):
+        return _arithmetic("/", self, other)
+
+    def __rtruediv__(self, other):
+        return _arithmetic("/", other, self)
+
+    def __pow__(self, other):
+        return _arithmetic("^", self, other)
+
+    def __rpow__(self, other):
+        return _arithmetic("^", other, self)
+
+    def __neg__(self):
+        return _math(("neg", _tree(self)))
+
+    def __pos__(self):
+        return self
+
+    def __abs__(self):
+        return _call("abs", self)
+
     # ---- transforms ----
 
     def transform(self, matrix):
         """Apply a 4x4 (or 3x4) affine world_from_local matrix."""
         m = _matrix(matrix)
-        node = self._node
+        node = self._json()
         if node["type"] == "transform":
             # Fold consecutive transforms into one node.
             m = m @ _frame_matrix(node["world_from_local"])
@@ -254,26 +309,80 @@ class SDF:
         """Rotate so that UP (Y) points along `axis`."""
         return self.transform(orientation(axis))
 
+    # ---- operators of the operator table ----
+
     def round(self, radius):
         """Grow by `radius` (edges become round): d - radius."""
-        return SDF({"type": "round", "operand": self._node,
-                    "radius": _positive("radius", radius)}, self._k)
+        return _operator("round", self, radius=radius)
 
     dilate = round
 
     def shell(self, thickness):
         """A hollow shell of full `thickness` about the surface:
         |d| - thickness / 2 (our `onion` takes the half thickness)."""
-        return SDF({"type": "onion", "operand": self._node,
-                    "thickness": _positive("thickness", thickness) / 2},
-                   self._k)
+        return _operator("onion", self,
+                         thickness=_positive("thickness", thickness) / 2)
+
+    def twist(self, k):
+        """Turn about UP (Y) by k radians per unit of height."""
+        return _operator("twist", self, k=k)
+
+    def bend(self, k):
+        """Turn about Z by k radians per unit along X."""
+        return _operator("bend", self, k=k)
+
+    def repeat(self, period, count=None):
+        """Copies every `period` (a number or per axis; 0: not along that
+        axis), without end or `count` copies on each side of the origin (an
+        integer or per axis). JSON: `spacing` and `limit`."""
+        keys = {"spacing": period}
+        if count is not None:
+            keys["limit"] = count
+        return _operator("repeat", self,
+                         {"spacing": "period", "limit": "count"}, **keys)
+
+    def elongate(self, h):
+        """Cut at the centre planes and pull apart by 2h (a number or per
+        axis)."""
+        return _operator("elongate", self, h=h)
+
+    def mirror(self, axes):
+        """Mirror the + side about the planes of `axes` ("x", "xz", ...)."""
+        return _operator("mirror", self, axes=axes)
+
+    def displace(self, displacement):
+        """Add `displacement` (a formula over x, y, z: a string, a number
+        or a math expression). A displacement that holds shapes is plain
+        arithmetic, self + displacement."""
+        if isinstance(displacement, str):
+            text = displacement
+        else:
+            tree = _tree(displacement, "displacement")
+            if _has_shapes(tree):
+                return self + displacement
+            text = _expression.to_infix(tree, None)
+        return _operator("displace", self, expression=text)
+
+    def bounded(self, bounds):
+        """The inside of this function clipped to the box `bounds`
+        ((xmin, ymin, zmin), (xmax, ymax, zmax)): what an expression whose
+        zero set is unbounded (a gyroid) needs."""
+        box = _box("bounds", bounds)
+        node = self._json()
+        if node["type"] != "expression" or "bounds" in node:
+            node = {"type": "expression", "expression": "s",
+                    "operands": {"s": node}}
+        else:
+            node = dict(node)
+        node["bounds"] = box
+        return SDF(node, self._k, math=self._math)
 
     # ---- the renderer's evaluator ----
 
     def compile(self):
         """The expression parsed by the renderer (cached)."""
         if self._compiled is None:
-            node = dict(self._node)
+            node = dict(self._json())
             node["material"] = 0
             text = json.dumps({"asset": {"version": "4.2"},
                                "materials": [{}], "sdfunctions": [node]})
@@ -339,6 +448,11 @@ class SDF:
             raise ValueError(f"{path}: unknown mesh extension (use .obj, .ply "
                              f"or .stl)")
 
+    def save_vm(self, path):
+        """Write the expression as a `.vm` file (fidget's format): math only,
+        shared clauses written once; shapes and bounds have no opcode."""
+        self.compile().save_vm(os.fspath(path))
+
     def save_grid(self, path, voxel, *, pad=2, bounds=None, binary=False):
         """Bake the SDF on a grid of `voxel` (as `ysdf bake`) and save it:
         .sdf (SDFGen text, or skanti binary with binary=True), .vdb, .vol."""
@@ -360,6 +474,190 @@ def _sdf(value, name="operand"):
     return value
 
 
+# -----------------------------------------------------------------------------
+# MATH EXPRESSIONS
+# -----------------------------------------------------------------------------
+
+
+def _math(tree):
+    """A math expression from its syntax tree."""
+    return SDF(None, math=True, tree=tree)
+
+
+def _tree(value, name="operand"):
+    """The syntax tree of an SDF (a shape becomes an operand) or a number."""
+    if isinstance(value, SDF):
+        if value._tree is not None:
+            return value._tree
+        return ("shape", value._json())
+    return _expression.number(value, name)
+
+
+def _arithmetic(op, a, b):
+    return _math(("op", op, _tree(a), _tree(b)))
+
+
+def _call(name, *args):
+    return _math(("call", name, tuple(_tree(a, name) for a in args)))
+
+
+def _has_shapes(tree):
+    """Whether a syntax tree names a shape operand (explicit stack)."""
+    stack = [tree]
+    while stack:
+        item = stack.pop()
+        kind = item[0]
+        if kind == "shape":
+            return True
+        if kind == "neg":
+            stack.append(item[1])
+        elif kind == "op":
+            stack.extend(item[2:])
+        elif kind == "call":
+            stack.extend(item[2])
+    return False
+
+
+def _box(name, value):
+    """((xmin, ymin, zmin), (xmax, ymax, zmax)) as JSON, each min < max."""
+    try:
+        a, b = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected ((xmin, ymin, zmin), (xmax, "
+                         f"ymax, zmax)), found {value!r}") from None
+    a, b = _vec3(name, a), _vec3(name, b)
+    if not (a < b).all():
+        raise ValueError(f"{name}: each minimum must be below its maximum, "
+                         f"found {tuple(a)} and {tuple(b)}")
+    return [_floats(a), _floats(b)]
+
+
+# -----------------------------------------------------------------------------
+# THE OPERATOR TABLE (src/sdf/sdf_operator_table.h)
+# -----------------------------------------------------------------------------
+
+_OPERATORS = {row["name"]: row for row in _implicit.sdf_operators()}
+
+
+def _counts(name, value, non_negative):
+    """Three integers; one integer is repeated."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        value = (value, value, value)
+    values = list(np.asarray(value, dtype=object).reshape(-1))
+    if len(values) != 3 or any(isinstance(v, bool) or
+                               not isinstance(v, numbers.Integral)
+                               for v in values):
+        raise TypeError(f"{name}: expected an integer or 3 integers, found "
+                        f"{value!r}")
+    if non_negative and min(values) < 0:
+        raise ValueError(f"{name}: must be >= 0, found {value!r}")
+    return [int(v) for v in values]
+
+
+def _axes(name, value):
+    if not isinstance(value, str):
+        raise TypeError(f"{name}: expected a string such as \"xz\", found "
+                        f"{type(value).__name__}")
+    if not value or any(c not in "xyz" for c in value) or \
+            len(set(value)) != len(value):
+        raise ValueError(f"{name}: expected distinct letters among x, y, z "
+                         f"(e.g. \"xz\"), found {value!r}")
+    return value
+
+
+def _key_value(key, value):
+    """A value for an operator key, checked by its type and range in the
+    table (the loader checks it again, with the same rules)."""
+    name, kind, limit = key["key"], key["type"], key["range"]
+    if kind == "number":
+        check = {"positive": _positive, "non_negative": _non_negative}
+        return check.get(limit, _number)(name, value)
+    if kind == "array of 3 numbers":
+        v = _vec3(name, value)
+        if limit == "positive" and not (v > 0).all():
+            raise ValueError(f"{name}: must be > 0 in every component, "
+                             f"found {tuple(v)}")
+        if limit == "non_negative" and not (v >= 0).all():
+            raise ValueError(f"{name}: must be >= 0 in every component, "
+                             f"found {tuple(v)}")
+        return _floats(v)
+    if kind == "array of 3 integers":
+        return _counts(name, value, limit != "any")
+    if kind == "string of axes":
+        return _axes(name, value)
+    if kind == "string":
+        if not isinstance(value, str) or not value:
+            raise TypeError(f"{name}: expected a formula (a string)")
+        return value
+    raise TypeError(f"{name}: not a key Python sets")
+
+
+def _operator(name, operand, labels=None, **values):
+    """The object of operator `name` over `operand`, its keys checked by the
+    operator table; `labels` names keys as the Python arguments do."""
+    row = _OPERATORS[name]
+    node = {"type": name, "operand": _sdf(operand)._json()}
+    keys = {key["key"]: key for key in row["keys"]}
+    for key, value in values.items():
+        if key not in keys:
+            raise TypeError(f"{name}: unknown key {key!r}")
+        label = (labels or {}).get(key, key)
+        node[key] = _key_value(dict(keys[key], key=label), value)
+    for key in row["keys"]:
+        if key["required"] and key["key"] not in node:
+            raise TypeError(f"{name}: missing {key['key']!r}")
+    return SDF(node, operand._k)
+
+
+def _document_operators():
+    """Append each operator's row of the table to its method's help."""
+    methods = {"round": "round", "shell": "onion", "twist": "twist",
+               "bend": "bend", "repeat": "repeat", "elongate": "elongate",
+               "mirror": "mirror", "displace": "displace"}
+    for method, name in methods.items():
+        row = _OPERATORS[name]
+        keys = "; ".join(f"{k['key']} ({k['type']}): {k['help']}"
+                         for k in row["keys"] if k["key"] != "operand")
+        function = getattr(SDF, method)
+        function.__doc__ = (f"{function.__doc__}\n\n        Scene format: "
+                            f"type \"{name}\", {row['help']}. Keys: {keys}.")
+
+
+_document_operators()
+
+
+def expression(text, *, bounds=None, **operands):
+    """The formula `text` over x, y, z (README "Expressions"; `log` is the
+    natural logarithm, `^` a power), whose other names are the shapes or
+    expressions given as keywords: expression("s + 0.1*sin(9*x)", s=ball).
+    The inside is where it is < 0; `bounds` clips it to a box."""
+    if not isinstance(text, str):
+        raise TypeError(f"expression: expected a string, found "
+                        f"{type(text).__name__}")
+    node = {"type": "expression", "expression": text}
+    if operands:
+        node["operands"] = {key: _sdf(value, key)._json()
+                            for key, value in operands.items()}
+    if bounds is not None:
+        node["bounds"] = _box("bounds", bounds)
+    try:
+        _implicit.check_expression(text, list(operands))
+    except _implicit.Error as error:
+        raise _implicit.Error(f"expression: {error}") from None
+    return SDF(node, math=True)
+
+
+def load_vm(path, *, bounds=None):
+    """A model in fidget's `.vm` format (one clause a line; the last is the
+    value). The scene keeps the file's path (relative once saved)."""
+    node = {"type": "expression", "uri": os.path.abspath(os.fspath(path))}
+    if bounds is not None:
+        node["bounds"] = _box("bounds", bounds)
+    _implicit.check_vm(node["uri"])  # a missing or bad file fails here
+    return SDF(node, math=True)
+
+
+
 def _combine(kind, a, bs, k):
     """Fold operands left; plain steps extend one n-ary node, smooth ones
     (the right operand's .k()) nest a smooth node. With `k`, all operands
@@ -368,23 +666,23 @@ def _combine(kind, a, bs, k):
     same as folding left for 2 and 3 operands), so that a blend of many
     parts listed in spatial order prunes well and nests no deeper than
     one level."""
-    node = _sdf(a)._node
+    node = _sdf(a)._json()
     if k is not None:
         k = _positive("k", k)
         if bs:
             return SDF({"type": "smooth_" + kind, "blend": k, "operands":
-                        [node] + [_sdf(b)._node for b in bs]})
+                        [node] + [_sdf(b)._json() for b in bs]})
     for b in bs:
         b = _sdf(b)
         blend = b._k
         if blend is not None:
-            node = {"type": "smooth_" + kind, "operands": [node, b._node],
+            node = {"type": "smooth_" + kind, "operands": [node, b._json()],
                     "blend": blend}
         elif node["type"] == kind:
             # The parser folds operands left: ((a op b) op c) == [a, b, c].
-            node = {"type": kind, "operands": node["operands"] + [b._node]}
+            node = {"type": kind, "operands": node["operands"] + [b._json()]}
         else:
-            node = {"type": kind, "operands": [node, b._node]}
+            node = {"type": kind, "operands": [node, b._json()]}
     return SDF(node)
 
 
