@@ -113,3 +113,37 @@ TEST_CASE("ysdf: errors are one line and exit 1") {
   CHECK(result.status != 0);
   CHECK(!std::filesystem::exists(dir / "out.xyz"));
 }
+
+TEST_CASE("ysdf: expressions, .vm files and the types table") {
+  auto dir   = test_dir("ysdf_expressions");
+  auto types = run_ysdf("types");
+  CHECK(types.status == 0);
+  for (auto word : {"sphere", "radius (number, > 0)", "twist", "repeat",
+           "limit", "optional", "expression", "displace", "opElongate"})
+    CHECK(types.output.find(word) != std::string::npos);
+  auto result = run_ysdf("bake " + (dir / "a.vdb").string() +
+                         " --voxel 0.1 --expression \"max(x, (y\"");
+  CHECK(result.status == 1);
+  CHECK(result.output == "ysdf: --expression: column 10: expected ')'\n");
+  result = run_ysdf("bake " + (dir / "a.vdb").string() +
+                    " --voxel 0.1 --expression x --shape \"sphere "
+                    "radius=1\"");
+  CHECK(result.output ==
+        "ysdf: bake: give one of --scene, --expression, --vm or one or more "
+        "--shape\n");
+  std::ofstream(dir / "bad.vm") << "_x var-x\n_y foo _x\n";
+  result = run_ysdf("bake " + (dir / "a.vdb").string() + " --voxel 0.1 --vm " +
+                    (dir / "bad.vm").string());
+  CHECK(result.output ==
+        "ysdf: " + (dir / "bad.vm").string() + ":2: unknown opcode \"foo\"\n");
+  result = run_ysdf(
+      "to-mesh " + (dir / "bad.vm").string() + " " + (dir / "a.obj").string());
+  CHECK(result.output ==
+        "ysdf: to-mesh: a scene or .vm file needs --voxel > 0\n");
+  result = run_ysdf("to-mesh " + (dir / "bad.vm").string() + " " +
+                    (dir / "a.obj").string() + " --voxel 0.1");
+  CHECK(result.output ==
+        "ysdf: " + (dir / "bad.vm").string() + ":2: unknown opcode \"foo\"\n");
+  CHECK(!std::filesystem::exists(dir / "a.obj"));
+  CHECK(!std::filesystem::exists(dir / "a.vdb"));
+}

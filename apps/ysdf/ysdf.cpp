@@ -2,9 +2,12 @@
 //
 //   ysdf info FILE                       header and statistics
 //   ysdf convert IN OUT                  between formats (by extension)
-//   ysdf bake OUT --voxel S --shape ...  analytic SDFs (or a scene) -> grid
+//   ysdf bake OUT --voxel S --shape ...  analytic SDFs (or a scene, an
+//                                        --expression, a --vm file) -> grid
 //   ysdf from-mesh MESH OUT --voxel S    triangle mesh -> grid (OpenVDB)
-//   ysdf to-mesh GRID OUT                grid -> triangle mesh (OpenVDB)
+//   ysdf to-mesh GRID OUT                grid (or a scene or .vm file, baked
+//                                        at --voxel) -> triangle mesh
+//   ysdf types                           the scene format's sdfunction types
 //
 // Grid formats by extension: .vdb (OpenVDB level set), .vol (Mitsuba 3),
 // .sdf/.df/.vox2 (SDFGen text or skanti binary; reading detects which from
@@ -22,11 +25,15 @@
 #include <vector>
 
 #include "scene/scene_io.h"
+#include "sdf/sdf_expression.h"
 #include "sdf/sdf_grid.h"
 #include "sdf/sdf_grid_io.h"
 #include "sdf/sdf_mesh.h"
 #include "sdf/sdf_mesh_io.h"
+#include "sdf/sdf_operator_table.h"
+#include "sdf/sdf_primitives.h"
 #include "sdf/sdf_program.h"
+#include "sdf/sdf_vm_io.h"
 #include "util/error.h"
 #include "util/file.h"
 
@@ -292,35 +299,44 @@ sdf_program make_scene_program(const std::string& filename) {
   return program;
 }
 
-struct bake_options {
-  std::string              output = "";
-  std::string              scene  = "";
-  std::vector<std::string> shapes = {};
-  std::vector<float>       bounds = {};
-  float                    voxel  = 0;
-  float                    blend  = 0;
-  int                      pad    = 2;
-  bool                     binary = false;
+// A formula of --expression (sdf_expression.h).
+sdf_program make_expression_program(const std::string& text) {
+  auto program = sdf_program{};
+  try {
+    parse_sdf_expression(program, text);
+  } catch (const io_error& error) {
+    throw io_error(std::string{"--expression: "} + error.what());
+  }
+  return program;
+}
+
+// A `.vm` file (sdf_vm_io.h).
+sdf_program make_vm_program(const std::string& filename) {
+  auto program = sdf_program{};
+  load_vm(program, filename);
+  return program;
+}
+
+// Where and how finely to sample a program.
+struct sample_options {
+  std::vector<float> bounds = {};  // xmin ymin zmin xmax ymax zmax, or none
+  float              voxel  = 0;
+  int                pad    = 2;
 };
 
-void run_bake(const bake_options& options, const reporter& r) {
-  if (options.scene.empty() == options.shapes.empty())
-    throw io_error("bake: give either --scene or one or more --shape");
+// Sample a program on a grid over its bounds (or the given ones).
+grid_data bake_program(const sdf_program& program,
+    const sample_options& options, const reporter& r) {
   if (options.pad < 0) throw io_error("bake: --pad must be >= 0");
-  auto program = sdf_program{};
-  if (!options.scene.empty()) {
-    program = make_scene_program(options.scene);
-  } else {
-    auto shapes = std::vector<shape_spec>{};
-    for (auto& spec : options.shapes) shapes.push_back(parse_shape(spec));
-    program = make_shapes_program(shapes, options.blend);
-  }
-  auto bounds = sdf_bounds(program);
+  auto bounds = bbox3f{};
   if (!options.bounds.empty()) {
     auto& b = options.bounds;
     bounds  = {{b[0], b[1], b[2]}, {b[3], b[4], b[5]}};
-  } else if (!is_finite(bounds) || is_empty(bounds)) {
-    throw io_error("bake: the shapes are unbounded (a plane?); give --bounds");
+  } else {
+    bounds = sdf_bounds(program);
+    if (!is_finite(bounds) || is_empty(bounds))
+      throw io_error(
+          "bake: the shapes are unbounded (a plane?); give --bounds");
   }
   bounds     = expand(bounds, options.pad * options.voxel);
   auto start = std::chrono::steady_clock::now();
@@ -328,6 +344,40 @@ void run_bake(const bake_options& options, const reporter& r) {
        [&](int done, int total) { progress(r, "baking", done, total); });
   note(r, "baked " + std::to_string(grid_samples(grid.dims)) + " samples in " +
               std::to_string(elapsed(start)) + " s");
+  return grid;
+}
+
+struct bake_options {
+  std::string              output     = "";
+  std::string              scene      = "";
+  std::string              expression = "";
+  std::string              vm         = "";
+  std::vector<std::string> shapes     = {};
+  sample_options           sampling   = {};
+  float                    blend      = 0;
+  bool                     binary     = false;
+};
+
+void run_bake(const bake_options& options, const reporter& r) {
+  auto sources = !options.scene.empty() + !options.shapes.empty() +
+                 !options.expression.empty() + !options.vm.empty();
+  if (sources != 1)
+    throw io_error(
+        "bake: give one of --scene, --expression, --vm or one or more "
+        "--shape");
+  auto program = sdf_program{};
+  if (!options.scene.empty()) {
+    program = make_scene_program(options.scene);
+  } else if (!options.expression.empty()) {
+    program = make_expression_program(options.expression);
+  } else if (!options.vm.empty()) {
+    program = make_vm_program(options.vm);
+  } else {
+    auto shapes = std::vector<shape_spec>{};
+    for (auto& spec : options.shapes) shapes.push_back(parse_shape(spec));
+    program = make_shapes_program(shapes, options.blend);
+  }
+  auto grid = bake_program(program, options.sampling, r);
   save_and_report(r, options.output, grid, options.binary);
 }
 
@@ -353,9 +403,20 @@ void run_from_mesh(const std::string& input, const std::string& output,
   save_and_report(r, output, grid, binary);
 }
 
+// A grid, or a scene or `.vm` file baked at --voxel, meshed.
 void run_to_mesh(const std::string& input, const std::string& output,
-    bool binary, bool text, const reporter& r) {
-  auto grid  = load_grid(input, input_format(input, binary, text));
+    bool binary, bool text, const sample_options& sampling, const reporter& r) {
+  auto ext  = path_extension(input);
+  auto grid = grid_data{};
+  if (ext == ".json" || ext == ".vm") {
+    if (!(sampling.voxel > 0))
+      throw io_error("to-mesh: a scene or .vm file needs --voxel > 0");
+    grid = bake_program(
+        ext == ".json" ? make_scene_program(input) : make_vm_program(input),
+        sampling, r);
+  } else {
+    grid = load_grid(input, input_format(input, binary, text));
+  }
   auto start = std::chrono::steady_clock::now();
   note(r, "meshing " + dims_text(grid.dims) +
               " samples with OpenVDB volumeToMesh...");
@@ -366,6 +427,42 @@ void run_to_mesh(const std::string& input, const std::string& output,
   note(r, "wrote " + output + ": " + std::to_string(mesh.positions.size()) +
               " vertices, " + std::to_string(mesh.triangles.size()) +
               " triangles in " + std::to_string(elapsed(start)) + " s");
+}
+
+// -----------------------------------------------------------------------------
+// TYPES
+// -----------------------------------------------------------------------------
+
+// How a primitive parameter is written, for `ysdf types`.
+std::string param_text(const sdf_param& param) {
+  auto range = param.range == sdf_param_range::positive ? "> 0" : ">= 0";
+  return std::string{param.key} + " (" +
+         (param.field == sdf_param_field::size ? "array of 3 numbers"
+                                               : "number") +
+         ", " + range + ")";
+}
+
+// The sdfunction types of the scene format: the primitive table's and the
+// operator table's rows.
+void run_types() {
+  std::printf("primitives (sdfunctions \"type\" and required keys):\n");
+  for (auto i = 0; i < (int)sdf_type::op_union; i++) {
+    auto keys = std::string{};
+    for (auto& param : primitive_params((sdf_type)i))
+      keys += (keys.empty() ? "" : ", ") + param_text(param);
+    std::printf("  %-20s %s\n", sdf_type_names[i].c_str(),
+        keys.empty() ? "(no keys)" : keys.c_str());
+  }
+  auto ranges = std::vector<std::string>{"", ", > 0", ", >= 0"};
+  std::printf("\noperators (their operands are nested sdfunction objects):\n");
+  for (auto& op : sdf_operators) {
+    std::printf("  %-20s %s\n", op.name, op.help);
+    for (auto& key : op.keys)
+      std::printf("    %-18s %s%s%s: %s\n", key.key,
+          sdf_key_type_names[(int)key.type].c_str(),
+          ranges[(int)key.range].c_str(), key.required ? "" : ", optional",
+          key.help);
+  }
 }
 
 }  // namespace
@@ -399,19 +496,23 @@ int main(int argc, const char** argv) {
   auto bake     = bake_options{};
   auto bake_cmd = app.add_subcommand("bake", "Bake analytic SDFs into a grid");
   bake_cmd->add_option("output", bake.output, "Grid to write")->required();
-  bake_cmd->add_option("--voxel", bake.voxel, "Voxel size")->required();
+  bake_cmd->add_option("--voxel", bake.sampling.voxel, "Voxel size")
+      ->required();
   bake_cmd->add_option("--shape", bake.shapes,
       "Shape \"TYPE key=value ...\" (keys radius radius2 height thickness "
       "size=x,y,z at=x,y,z; a leading '-' subtracts); repeat to combine");
   bake_cmd->add_option(
       "--scene", bake.scene, "Scene whose sdfunctions to bake");
+  bake_cmd->add_option("--expression", bake.expression,
+      "Infix formula over x, y, z to bake (README \"Expressions\")");
+  bake_cmd->add_option("--vm", bake.vm, "fidget .vm file to bake");
   bake_cmd->add_option(
       "--blend", bake.blend, "Smooth blend radius for combining shapes");
   bake_cmd->add_option(
-      "--pad", bake.pad, "Padding in voxels around the bounds");
+      "--pad", bake.sampling.pad, "Padding in voxels around the bounds");
   bake_cmd
-      ->add_option(
-          "--bounds", bake.bounds, "World box xmin ymin zmin xmax ymax zmax")
+      ->add_option("--bounds", bake.sampling.bounds,
+          "World box xmin ymin zmin xmax ymax zmax")
       ->expected(6);
   bake_cmd->add_flag("--binary", bake.binary, "Write .sdf as skanti binary");
 
@@ -432,11 +533,25 @@ int main(int argc, const char** argv) {
 
   auto to_mesh = app.add_subcommand(
       "to-mesh", "Extract a triangle mesh from a grid (OpenVDB)");
-  to_mesh->add_option("grid", in_file, "Grid to read")->required();
+  auto mesh_sampling = sample_options{};
+  to_mesh
+      ->add_option("input", in_file,
+          "Grid to read, or a scene (.json) or .vm file to bake at --voxel")
+      ->required();
   to_mesh->add_option("output", out_file, "Mesh to write (.obj, .ply)")
       ->required();
   to_mesh->add_flag("--binary", binary, "Read a .sdf as skanti binary");
   to_mesh->add_flag("--text", text, "Read a .sdf as SDFGen text");
+  to_mesh->add_option("--voxel", mesh_sampling.voxel,
+      "Voxel size to bake a scene or .vm file at");
+  to_mesh->add_option(
+      "--pad", mesh_sampling.pad, "Padding in voxels around the bounds");
+  to_mesh
+      ->add_option("--bounds", mesh_sampling.bounds,
+          "World box xmin ymin zmin xmax ymax zmax")
+      ->expected(6);
+  auto types = app.add_subcommand(
+      "types", "List the scene format's sdfunction types and their keys");
 
   try {
     app.parse(argc, argv);
@@ -460,7 +575,9 @@ int main(int argc, const char** argv) {
     } else if (*from_mesh) {
       run_from_mesh(in_file, out_file, voxel, pad, shell, binary, r);
     } else if (*to_mesh) {
-      run_to_mesh(in_file, out_file, binary, text, r);
+      run_to_mesh(in_file, out_file, binary, text, mesh_sampling, r);
+    } else if (*types) {
+      run_types();
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "ysdf: %s\n", e.what());
