@@ -1,55 +1,98 @@
 #!/usr/bin/env bash
-# Speed-up of ypathtrace under mpirun on this machine: 1 process x 1 thread,
-# 2 ranks x 1 thread, 1 process x 2 threads; wall-clock and CPU seconds
-# (user + system, all processes: mpirun's own included), best of REPEAT runs.
-# Checks that every output is byte-identical to the first.
+# MPI speed-up of ypathtrace on this machine (issue 23's measure):
+#  1. PAIRS alternating pairs of one process x 1 thread and 2 ranks x 1
+#     thread; prints each pair and the median speed-up (target: >= 1.8x);
+#  2. one run each of 1 process, 1, 2 and 4 ranks x 1 thread (4 ranks are
+#     oversubscribed on 2 cores), with the CPU seconds of every rank and of
+#     all processes (mpirun included).
+# Every output must be byte-identical to the first (the script fails if not).
 #
 #   bash bench/mpi_speedup.sh [ypathtrace options]
 #
-# Default: examples/materials at 320 px, 32 spp. YPATHTRACE names the binary
-# (default build/release/ypathtrace), REPEAT the runs per mode (default 3).
+# Default: examples/sdfunction at 480 px, 128 spp, 8 bounces (about 8 s on one
+# core). PAIRS (default 5); YPATHTRACE names the binary (default
+# build/release/ypathtrace). Wall-clock numbers mean something only on an
+# idle machine: the load average is printed before and after.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-binary="${YPATHTRACE:-build/release/ypathtrace}"
-repeat="${REPEAT:-3}"
+binary="$(realpath "${YPATHTRACE:-build/release/ypathtrace}")"
+pairs="${PAIRS:-5}"
 args=("$@")
 if [ ${#args[@]} -eq 0 ]; then
-  args=(--scene examples/materials/materials.json --resolution 320 --samples 32)
+  args=(--scene examples/sdfunction/sdfunction.json --resolution 480
+    --samples 128 --bounces 8)
 fi
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+export OMPI_MCA_rmaps_base_oversubscribe=1
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
+echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 
-# mode name, then the command prefix and the thread count.
-run_mode() {
-  local name="$1" threads="$2"
-  shift 2
-  local best_wall="" best_cpu=""
-  for i in $(seq "$repeat"); do
-    /usr/bin/time -o "$out/time" -f "%e %U %S" "$@" "$binary" "${args[@]}" \
-      --quiet --threads "$threads" --output "$out/$name.exr" >/dev/null
-    local times
-    times=$(tail -1 "$out/time")
-    local wall cpu
-    wall=$(echo "$times" | awk '{print $1}')
-    cpu=$(echo "$times" | awk '{print $2 + $3}')
-    if [ -z "$best_wall" ] || awk "BEGIN{exit !($wall < $best_wall)}"; then best_wall=$wall; fi
-    if [ -z "$best_cpu" ] || awk "BEGIN{exit !($cpu < $best_cpu)}"; then best_cpu=$cpu; fi
+# run NAME RANKS: one render (RANKS 0: without mpirun); sets `wall`, `cpu`
+# (all processes) and `ranks_cpu` (each rank's user + system seconds).
+run() {
+  local name="$1" ranks="$2"
+  rm -f "$out"/cpu.*
+  local command=("$binary" "${args[@]}" --threads 1 --quiet
+    --output "$out/$name.exr")
+  local start end
+  start=$(date +%s.%N)
+  if [ "$ranks" -eq 0 ]; then
+    /usr/bin/time -o "$out/total" -f "%U %S" \
+      /usr/bin/time -o "$out/cpu.0" -f "%U %S" "${command[@]}" >/dev/null
+  else
+    # Each rank under its own `time`, named by its rank.
+    /usr/bin/time -o "$out/total" -f "%U %S" mpirun -np "$ranks" \
+      sh -c 'exec /usr/bin/time -o "$0/cpu.$OMPI_COMM_WORLD_RANK" -f "%U %S" "$@"' \
+      "$out" "${command[@]}" >/dev/null
+  fi
+  end=$(date +%s.%N)
+  wall=$(awk "BEGIN{printf \"%.2f\", $end - $start}")
+  cpu=$(awk '{printf "%.2f", $1 + $2}' "$out/total")
+  ranks_cpu=""
+  for file in $(ls "$out"/cpu.* | sort -t. -k2 -n); do
+    ranks_cpu="$ranks_cpu$(awk '{printf "%.2f", $1 + $2}' "$file") "
   done
-  echo "$name $best_wall $best_cpu"
+  if [ ! -f "$out/first.exr" ]; then
+    cp "$out/$name.exr" "$out/first.exr"
+  elif ! cmp -s "$out/$name.exr" "$out/first.exr"; then
+    echo "error: $name's image differs from the first run's" >&2
+    exit 1
+  fi
 }
 
-echo "| mode | wall s | CPU s | speed-up vs 1x1 |"
-echo "|---|---|---|---|"
-base=""
-for mode in "1x1 1" "2x1 1 mpirun -np 2" "1x2 2"; do
-  set -- $mode
-  result=$(run_mode "$@")
-  read -r name wall cpu <<<"$result"
-  [ -z "$base" ] && base=$wall
-  speedup=$(awk "BEGIN{printf \"%.2f\", $base / $wall}")
-  echo "| $name | $wall | $cpu | ${speedup}x |"
+echo
+echo "Alternating pairs: 1 process x 1 thread, then 2 ranks x 1 thread"
+echo
+echo "| pair | 1 process wall s | 2 ranks wall s | speed-up | 2 ranks CPU s per rank |"
+echo "|---|---|---|---|---|"
+speedups=()
+for pair in $(seq "$pairs"); do
+  run single 0
+  single_wall=$wall
+  run ranks2 2
+  speedup=$(awk "BEGIN{printf \"%.2f\", $single_wall / $wall}")
+  speedups+=("$speedup")
+  echo "| $pair | $single_wall | $wall | ${speedup}x | $ranks_cpu|"
 done
-cmp "$out/1x1.exr" "$out/2x1.exr" && cmp "$out/1x1.exr" "$out/1x2.exr" &&
-  echo "(outputs byte-identical)"
-echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
+median=$(printf "%s\n" "${speedups[@]}" | sort -n |
+  awk '{v[NR]=$1} END{print (NR%2 ? v[(NR+1)/2] : (v[NR/2]+v[NR/2+1])/2)}')
+echo
+echo "median speed-up of 2 ranks: ${median}x"
+
+echo
+echo "| mode | wall s | CPU s per rank | CPU s, all processes | speed-up |"
+echo "|---|---|---|---|---|"
+base=""
+for ranks in 0 1 2 4; do
+  run "mode$ranks" "$ranks"
+  [ -z "$base" ] && base=$wall
+  name="$ranks ranks"
+  [ "$ranks" -eq 1 ] && name="1 rank"
+  [ "$ranks" -eq 0 ] && name="1 process (no mpirun)"
+  speedup=$(awk "BEGIN{printf \"%.2f\", $base / $wall}")
+  echo "| $name | $wall | $ranks_cpu| $cpu | ${speedup}x |"
+done
+echo
+echo "(every output byte-identical)"
+echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
