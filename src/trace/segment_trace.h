@@ -131,29 +131,49 @@ inline void segment_advance(segment_state& state, float t, float f) {
   state.have_last = true;
 }
 
+// A segment of the ray ahead with its own slope bound (Galin et al.'s local
+// Lipschitz bound of the segment), kept for every step that starts in it.
+struct segment_local {
+  float end    = 0;        // the bound holds up to here
+  float slope  = flt_inf;  // 0 where the segment's range excludes 0
+  float length = 0;        // of the segment
+  float next   = 0;        // length of the next one
+};
+
 // Bound of the step from t where the region's slope bound allows `safe`:
-// when that covers little of the stretch to b, the bound over a shorter
-// segment [t, t + length] ahead may allow more (Galin et al.'s local bound
-// of the segment; the segment grows with the steps taken). A segment whose
-// range excludes 0 is crossed whole.
+// when that covers little of the stretch to b, the bound over a segment
+// ahead may allow more. A segment serves the steps that start in it while
+// they stay a fair part of it (a long segment's bound is loose where the
+// steps get short, near a surface); the next one is twice as long when a
+// step could cross it whole, else four times the last step (or the
+// region's). A segment whose range excludes 0 is crossed whole.
 template <typename Function>
 inline float segment_local_step(const Function& function, int region, float t,
-    float b, float f, float safe, float& length, segment_state& state) {
+    float b, float f, float safe, segment_local& local, segment_state& state) {
   if (safe >= (b - t) * segment_local_fraction) return safe;
-  length     = std::min(b - t, std::max(length, 2 * safe));
-  auto bound = function.bound(region, t, t + length);
-  state.evaluations++;
-  auto range = bound.range;
-  auto local = safe;
-  if (!is_entire(range) && (range.hi < 0 || range.lo >= 0)) {
-    local = length;
-  } else if (bound.slope < flt_inf) {
-    local = std::min(std::abs(f) / bound.slope, length);
+  auto step = 0.0f, ahead = local.end - t;
+  for (auto fresh = false; !fresh;) {
+    fresh = !(t < local.end);
+    if (fresh) {
+      local.length = std::min(b - t, std::max(4 * safe, local.next));
+      auto bound   = function.bound(region, t, t + local.length);
+      state.evaluations++;
+      auto range  = bound.range;
+      local.end   = t + local.length;
+      local.slope = !is_entire(range) && (range.hi < 0 || range.lo >= 0)
+                        ? 0
+                        : bound.slope;
+      ahead       = local.length;
+    }
+    step = local.slope > 0 ? std::abs(f) / local.slope : ahead;
+    if (!(step >= 0)) step = 0;  // an unbounded slope: inf / inf
+    local.next = step >= ahead ? 2 * local.length : 4 * step;
+    if (!fresh && step < local.length * segment_local_fraction)
+      local.end = t;  // too loose here: a shorter segment from t
+    else
+      break;
   }
-  local  = std::max(safe, local);
-  length = 2 * std::max(local, length * 0.5f);
-  if (local < length * 0.25f) length = 4 * local;
-  return local;
+  return std::max(safe, std::min(step, ahead));
 }
 
 // March [a, b] inside one region where |df/dt| <= slope: steps of |f| /
@@ -176,14 +196,14 @@ inline void segment_lipschitz(const Function& function, int region, float slope,
       return segment_bracket(state, t);
     segment_advance(state, t, f);
   }
-  auto length = 0.0f;  // of the last local segment
+  auto local = segment_local{};
   while (t < b) {
     if (t > state.cutoff || state.evaluations >= state.max_evaluations) return;
     // |f| / slope; a NaN value (no finite slope should allow one) steps by
     // the threshold.
     auto safe = std::abs(f) / slope;
     if (!(safe >= 0)) safe = 0;
-    safe = segment_local_step(function, region, t, b, f, safe, length, state);
+    safe = segment_local_step(function, region, t, b, f, safe, local, state);
     if (t + safe >= b) {
       // No root before the end: the next region takes over from there.
       state.last_t    = b;
