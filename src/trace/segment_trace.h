@@ -78,7 +78,7 @@ struct segment_bound {
 // is NaN at both ends, stop being bisected at this fraction of the object's
 // stretch of the ray (the regions of a field are many and small where the
 // value may be NaN: their range never decides them).
-inline constexpr float segment_nan_fraction = 1.0f / 64;
+inline constexpr float segment_nan_fraction = 1.0f / 16;
 // Most pieces pending at once: bisection halves a piece per level, and a
 // float interval cannot be halved more than about 280 times, but the hit
 // threshold stops it long before (t * 1e-5 is 17 halvings of t).
@@ -248,9 +248,18 @@ inline bool segment_nan_ends(const Function& function, int region,
 // of pieces shorter than the hit threshold (or, where the value may be NaN
 // and is NaN at both ends, shorter than `coarse`).
 template <typename Function>
-inline void segment_isolate(const Function& function, int region, float a,
-    float b, float coarse, const march_params& params, float hit_min,
-    segment_state& state) {
+inline void segment_isolate(const Function& function, int region,
+    interval region_range, float a, float b, float coarse,
+    const march_params& params, float hit_min, segment_state& state) {
+  // A short stretch of a region that may be NaN (the octree splits those
+  // down to its deepest cells: their range never decides them) costs its
+  // end samples only when it is NaN at both.
+  if (is_entire(region_range) && b - a <= coarse &&
+      segment_nan_ends(function, region, {a, b}, state)) {
+    state.last_t    = b;
+    state.have_last = false;
+    return;
+  }
   segment_piece stack[segment_stack_size];
   auto          count = 0;
   stack[count++]      = {a, b};
@@ -357,7 +366,7 @@ inline march_result segment_trace(const Function& function, float t0, float t1,
       segment_lipschitz(function, region.region, region.slope, t, end, params,
           hit_min, state);
     } else {
-      segment_isolate(function, region.region, t, end,
+      segment_isolate(function, region.region, range, t, end,
           (t1 - t0) * segment_nan_fraction, params, hit_min, state);
     }
     t = end;
