@@ -98,16 +98,27 @@ inline vec2f sample_disk(vec2f ruv) {
   return {r * std::cos(phi), r * std::sin(phi)};
 }
 
-// Uniform direction inside a cone of half-angle acos(cos_max) around `axis`.
-inline vec3f sample_cone(vec3f axis, float cos_max, vec2f ruv) {
-  auto cos_t = 1 - ruv.y * (1 - cos_max);
-  auto sin_t = std::sqrt(clamp(1 - cos_t * cos_t, 0.0f, 1.0f));
+// Uniform direction inside a cone around the unit `axis`, its size given as
+// 1 - cos(half angle): small cones (far lights) keep their precision, where
+// 1 - cos_max rounded in float would lose it (a cone of 1e-4 rad has
+// 1 - cos = 5e-9, below float's resolution near 1).
+inline vec3f sample_cone(vec3f axis, float one_minus_cos, vec2f ruv) {
+  auto v     = ruv.y * one_minus_cos;  // 1 - cos(theta)
+  auto sin_t = std::sqrt(clamp(v * (2 - v), 0.0f, 1.0f));
   auto phi   = 2 * pif * ruv.x;
-  auto local = vec3f{sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t};
+  auto local = vec3f{sin_t * std::cos(phi), sin_t * std::sin(phi), 1 - v};
   return transform_direction(basis_fromz(axis), local);
 }
-inline float sample_cone_pdf(float cos_max) {
-  return 1 / (2 * pif * (1 - cos_max));
+inline float sample_cone_pdf(float one_minus_cos) {
+  return 1 / (2 * pif * one_minus_cos);
+}
+
+// 1 - cos of the half angle of the cone of a sphere of squared radius r2
+// seen from squared distance d2 > r2: sin^2 / (1 + cos), without
+// cancellation.
+inline float sphere_cone_size(float r2, float d2) {
+  auto sin2 = r2 / d2;
+  return sin2 / (1 + std::sqrt(std::max(0.0f, 1 - sin2)));
 }
 
 // Index from a cumulative distribution (cdf.back() is the total weight).

@@ -132,6 +132,22 @@ inline bool is_delta(const material_point& material) {
   return false;
 }
 
+// Whether the material scatters only to the side light comes from (no
+// transmission): light behind its surface cannot reach the viewer.
+inline bool is_reflective_only(const material_point& material) {
+  switch (material.type) {
+    case material_type::matte:
+    case material_type::glossy:
+    case material_type::reflective:
+    case material_type::gltfpbr: return true;
+    case material_type::transparent:
+    case material_type::refractive:
+    case material_type::subsurface:
+    case material_type::volumetric: return false;
+  }
+  return false;
+}
+
 // Whether the material encloses a participating medium.
 inline bool is_volumetric(const material_point& material) {
   return material.type == material_type::refractive ||

@@ -110,13 +110,26 @@ static bool blocks_without_emission(
          material.color_tex < 0 && max(material.emission) <= 0;
 }
 
-// Radiance arriving at a point from `ray` without scattering: the emission of
-// the first surface that blocks it, or the environment. Surfaces with opacity
-// let (1 - opacity) through and volumetric (pass-through) objects attenuate
-// by their transmittance, both deterministically; any other surface blocks.
-static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
-    const march_params& march, const lights_data& lights, ray3f ray,
+// Emission of one light arriving at a point along `ray` without
+// scattering: for a shape light, what its object's surfaces emit where the
+// ray meets them; for an environment, its radiance if the ray escapes. It is
+// attenuated by what the ray crosses: surfaces with opacity let (1 -
+// opacity) through and volumetric (pass-through) objects attenuate by their
+// transmittance, both deterministically; any other surface blocks. Other
+// emitters add nothing here: their own light samples count them. The object
+// alone is traced first: a direction of its cone that misses it carries
+// nothing, and no scene ray is traced for it.
+static vec3f eval_light(const scene_data& scene, const accel_data& accel,
+    const march_params& march, const lights_data& lights, int light, ray3f ray,
     int64_t& evaluations) {
+  auto& source = lights.lights[light];
+  auto  object =
+      source.shape == light_shape::environment ? invalidid : source.object;
+  if (object >= 0) {
+    auto first = intersect_object(accel, march, object, ray);
+    evaluations += first.evaluations;
+    if (!first.hit) return {0, 0, 0};
+  }
   auto transmittance = vec3f{1, 1, 1};
   auto radiance      = vec3f{0, 0, 0};
   auto inside        = std::array<int, 8>{};  // volumetric objects entered
@@ -125,14 +138,19 @@ static vec3f eval_unscattered(const scene_data& scene, const accel_data& accel,
   for (auto crossing = 0; crossing < max_crossings; crossing++) {
     auto isec = intersect_scene(accel, march, ray);
     evaluations += isec.evaluations;
-    if (!isec.hit)
-      return radiance + transmittance * eval_environment(scene, lights, ray.d);
-    if (blocks_without_emission(scene, accel.objects[isec.object]))
+    if (!isec.hit) {
+      if (object >= 0) return radiance;
+      return transmittance *
+             eval_environment_light(scene, lights, source, ray.d);
+    }
+    if (isec.object != object &&
+        blocks_without_emission(scene, accel.objects[isec.object]))
       return radiance;
     auto  point    = eval_surface(scene, accel, ray, isec);
     auto& material = point.material;
-    radiance += transmittance * material.opacity *
-                eval_emission(material, point.normal, -ray.d);
+    if (isec.object == object)
+      radiance += transmittance * material.opacity *
+                  eval_emission(material, point.normal, -ray.d);
     if (material.type != material_type::volumetric) {
       if (material.opacity >= 1) return radiance;
       transmittance *= 1 - material.opacity;
@@ -198,9 +216,13 @@ struct path_state {
   int          opacity_skips = 0;
   volume_stack volumes       = {};
   // Two-sample MIS: the BSDF pdf of the direction that led here, or 0 when
-  // emission found along it needs no weight (camera, delta, one-sample).
-  float bsdf_pdf = 0;
-  vec3f from     = {0, 0, 0};
+  // emission found along it needs no weight (camera, delta, one-sample),
+  // and the light context of the point it left (the light pdf of an emitter
+  // it lands on is seen from there).
+  float         bsdf_pdf = 0;
+  light_context from     = {};
+  // How lights are picked (the render's parameter).
+  light_sampler_type light_sampler = light_sampler_type::bvh;
 };
 
 // The one sample/pdf/weight step: multiply the path weight by f / pdf.
@@ -212,22 +234,55 @@ static bool update_weight(
   return true;
 }
 
-// Weight for emission reached by a BSDF-sampled direction.
+// MIS weight of the emission of accel object `object` reached by a
+// BSDF-sampled direction: against the light sample of that object's light
+// (1 for an emitter that is no light: nothing else samples it).
 static float emission_weight(const scene_data& scene, const accel_data& accel,
-    const lights_data& lights, const path_state& path, vec3f direction) {
-  if (path.bsdf_pdf <= 0) return 1.0f;
+    const lights_data& lights, const path_state& path, int object,
+    vec3f direction) {
+  if (path.bsdf_pdf <= 0) return 1;
+  if (object < 0 || object >= (int)lights.object_lights.size()) return 1;
+  auto light = lights.object_lights[object];
+  if (light < 0) return 1;
   return power_heuristic(path.bsdf_pdf,
-      sample_lights_pdf(scene, accel, lights, path.from, direction));
+      sample_light_pdf(scene, accel, lights, path.from, light, direction));
 }
 
-// A light direction from `position` (three numbers drawn in order).
-static vec3f sample_lights_next(const scene_data& scene,
-    const accel_data& accel, const lights_data& lights, vec3f position,
-    path_sampler& sampler) {
+// Radiance of the environments along a direction that escaped the scene,
+// each weighted against its own light sample.
+static vec3f escaped_radiance(const scene_data& scene, const accel_data& accel,
+    const lights_data& lights, const path_state& path, vec3f direction) {
+  if (path.bsdf_pdf <= 0) return eval_environment(scene, lights, direction);
+  auto radiance = vec3f{0, 0, 0};
+  for (auto k = lights.shapes; k < (int)lights.lights.size(); k++) {
+    auto& light    = lights.lights[k];
+    auto  emission = eval_environment_light(scene, lights, light, direction);
+    if (emission == vec3f{0, 0, 0}) continue;
+    auto lpdf = sample_light_pdf(scene, accel, lights, path.from, k, direction);
+    radiance += emission * power_heuristic(path.bsdf_pdf, lpdf);
+  }
+  return radiance;
+}
+
+// Where light is wanted at a surface point: the normal on the side of
+// `outgoing` for materials that only reflect (lights behind them get no
+// samples), none for those that also transmit.
+static light_context surface_light_context(
+    const surface_point& point, vec3f outgoing, light_sampler_type sampler) {
+  auto normal = is_reflective_only(point.material)
+                    ? up_normal(point.normal, outgoing)
+                    : vec3f{0, 0, 0};
+  return {point.position, normal, sampler};
+}
+
+// A light sample (three numbers drawn in order).
+static light_sample sample_lights_next(const scene_data& scene,
+    const accel_data& accel, const lights_data& lights,
+    const light_context& context, path_sampler& sampler) {
   auto rl  = next1f(sampler);
   auto rel = next1f(sampler);
   auto ruv = next2f(sampler);
-  return sample_lights(scene, accel, lights, position, rl, rel, ruv);
+  return sample_lights(scene, accel, lights, context, rl, rel, ruv);
 }
 
 // Scattering in a medium: one-sample mixture of the phase function and the
@@ -238,19 +293,21 @@ static bool shade_medium(const scene_data& scene, const accel_data& accel,
   auto& medium   = path.volumes.items[path.volumes.size - 1];
   auto  outgoing = -path.ray.d;
   auto  incoming = vec3f{0, 0, 0};
+  auto  context  = light_context{position, {0, 0, 0}, path.light_sampler};
   auto  rmix     = use_lights ? next1f(sampler) : 0.0f;
   if (rmix < 0.5f) {
     auto rl  = next1f(sampler);
     auto ru  = next2f(sampler);
     incoming = sample_scattering(medium, outgoing, rl, ru);
   } else {
-    incoming = sample_lights_next(scene, accel, lights, position, sampler);
+    incoming =
+        sample_lights_next(scene, accel, lights, context, sampler).direction;
   }
   if (incoming == vec3f{0, 0, 0}) return false;
   auto pdf = sample_scattering_pdf(medium, outgoing, incoming);
   if (use_lights)
     pdf = 0.5f * pdf +
-          0.5f * sample_lights_pdf(scene, accel, lights, position, incoming);
+          0.5f * sample_lights_pdf(scene, accel, lights, context, incoming);
   if (!update_weight(
           path, incoming, eval_scattering(medium, outgoing, incoming), pdf))
     return false;
@@ -272,32 +329,35 @@ static vec3f shade_delta(
           eval_delta(material, point.normal, outgoing, incoming), pdf))
     return {0, 0, 0};
   // A volumetric boundary only lets the path through, and light samples see
-  // through it too (eval_unscattered): emission found beyond it keeps the MIS
+  // through it too (eval_light): emission found beyond it keeps the MIS
   // weight of the sample that led here.
   if (material.type != material_type::volumetric) path.bsdf_pdf = 0;
   return incoming;
 }
 
-// Two-sample MIS: a light sample traced to whatever emits along it, then a
-// BSDF sample that continues the path, both weighted by the power heuristic.
-// Never called at the last bounce, whose light sample would count a share of
-// paths one bounce longer than one-sample MIS and the BSDF alone reach.
+// Two-sample MIS: a light sample that counts its own light's emission along
+// its direction, then a BSDF sample that continues the path, both weighted
+// by the power heuristic (see sample_light_pdf() in lights.h for why each
+// emitter is counted once). Never called at the last bounce, whose light
+// sample would count a share of paths one bounce longer than one-sample MIS
+// and the BSDF alone reach.
 static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
     const march_params& march, const lights_data& lights, path_state& path,
     const surface_point& point, path_sampler& sampler, int64_t& evaluations) {
   auto& material = point.material;
   auto  outgoing = -path.ray.d;
-  auto  light =
-      sample_lights_next(scene, accel, lights, point.position, sampler);
-  if (light != vec3f{0, 0, 0}) {
-    auto bsdfcos = eval_bsdfcos(material, point.normal, outgoing, light);
-    auto lpdf = sample_lights_pdf(scene, accel, lights, point.position, light);
-    if (bsdfcos != vec3f{0, 0, 0} && lpdf > 0) {
-      auto bpdf = sample_bsdfcos_pdf(material, point.normal, outgoing, light);
-      auto le   = eval_unscattered(scene, accel, march, lights,
-            spawn_ray(accel, march, point, light), evaluations);
-      path.radiance +=
-          path.weight * bsdfcos * le * (power_heuristic(lpdf, bpdf) / lpdf);
+  auto  context  = surface_light_context(point, outgoing, path.light_sampler);
+  auto  light    = sample_lights_next(scene, accel, lights, context, sampler);
+  if (light.light >= 0) {
+    auto bsdfcos =
+        eval_bsdfcos(material, point.normal, outgoing, light.direction);
+    if (bsdfcos != vec3f{0, 0, 0}) {
+      auto bpdf =
+          sample_bsdfcos_pdf(material, point.normal, outgoing, light.direction);
+      auto le = eval_light(scene, accel, march, lights, light.light,
+          spawn_ray(accel, march, point, light.direction), evaluations);
+      path.radiance += path.weight * bsdfcos * le *
+                       (power_heuristic(light.pdf, bpdf) / light.pdf);
     }
   }
   auto rl       = next1f(sampler);
@@ -309,7 +369,7 @@ static vec3f shade_two_sample(const scene_data& scene, const accel_data& accel,
           eval_bsdfcos(material, point.normal, outgoing, incoming), pdf))
     return {0, 0, 0};
   path.bsdf_pdf = pdf;
-  path.from     = point.position;
+  path.from     = context;
   return incoming;
 }
 
@@ -321,6 +381,7 @@ static vec3f shade_one_sample(const scene_data& scene, const accel_data& accel,
   auto& material = point.material;
   auto  outgoing = -path.ray.d;
   auto  incoming = vec3f{0, 0, 0};
+  auto  context  = surface_light_context(point, outgoing, path.light_sampler);
   auto  rmix     = use_lights ? next1f(sampler) : 0.0f;
   if (rmix < 0.5f) {
     auto rl  = next1f(sampler);
@@ -328,13 +389,13 @@ static vec3f shade_one_sample(const scene_data& scene, const accel_data& accel,
     incoming = sample_bsdfcos(material, point.normal, outgoing, rl, ru);
   } else {
     incoming =
-        sample_lights_next(scene, accel, lights, point.position, sampler);
+        sample_lights_next(scene, accel, lights, context, sampler).direction;
   }
   if (incoming == vec3f{0, 0, 0}) return incoming;
   auto pdf = sample_bsdfcos_pdf(material, point.normal, outgoing, incoming);
   if (use_lights)
-    pdf = 0.5f * pdf + 0.5f * sample_lights_pdf(scene, accel, lights,
-                                  point.position, incoming);
+    pdf = 0.5f * pdf +
+          0.5f * sample_lights_pdf(scene, accel, lights, context, incoming);
   if (!update_weight(path, incoming,
           eval_bsdfcos(material, point.normal, outgoing, incoming), pdf))
     return {0, 0, 0};
@@ -365,11 +426,11 @@ static void update_volumes(path_state& path, const surface_point& point,
 static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const ray3f& camera_ray,
     const trace_params& params, path_sampler& sampler, int64_t& evaluations) {
-  auto path       = path_state{};
-  path.ray        = camera_ray;
-  path.from       = camera_ray.o;
-  auto use_lights = params.implicit_mis && !lights.lights.empty();
-  auto two_sample = use_lights && params.mis == mis_type::two_sample;
+  auto path          = path_state{};
+  path.ray           = camera_ray;
+  path.light_sampler = params.light_sampler;
+  auto use_lights    = params.implicit_mis && !lights.lights.empty();
+  auto two_sample    = use_lights && params.mis == mis_type::two_sample;
   // Straight-through opacity hits do not count as bounces.
   auto bounce = 0;
   while (bounce < params.bounces) {
@@ -380,9 +441,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     evaluations += isec.evaluations;
     if (!isec.hit) {
       if (bounce > 0 || !params.envhidden)
-        path.radiance +=
-            path.weight * eval_environment(scene, lights, path.ray.d) *
-            emission_weight(scene, accel, lights, path, path.ray.d);
+        path.radiance += path.weight * escaped_radiance(scene, accel, lights,
+                                           path, path.ray.d);
       break;
     }
 
@@ -435,7 +495,8 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       auto emission = eval_emission(material, point.normal, outgoing);
       auto mis      = emission == vec3f{0, 0, 0}
                           ? 1.0f
-                          : emission_weight(scene, accel, lights, path, path.ray.d);
+                          : emission_weight(
+                                scene, accel, lights, path, isec.object, path.ray.d);
       path.radiance += path.weight * emission * mis;
       if (last) break;
 
@@ -443,6 +504,17 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
       if (is_delta(material)) {
         incoming = shade_delta(path, point, sampler);
       } else if (two_sample && path.volumes.size == 0) {
+        // Inside a medium, two-sample MIS gives way to the one-sample
+        // mixture (as shade_medium() does). A light sample from there would
+        // need the transmittance of the medium it starts in, which
+        // eval_light() does not know (it attenuates only the media it
+        // enters along its ray, and would take the boundary it leaves by
+        // for an entry), and it could not cross the refractive or
+        // subsurface boundary that closes most media (a delta interface
+        // blocks it). The mixture follows the light direction as the path
+        // itself, through free-flight sampling and the boundary, so it stays
+        // unbiased: emission reached that way takes weight 1 (bsdf_pdf = 0),
+        // the mixture pdf being already in the path weight.
         incoming = shade_two_sample(scene, accel, params.march, lights, path,
             point, sampler, evaluations);
       } else {

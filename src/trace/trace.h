@@ -43,23 +43,24 @@ enum class sampler_type { sobol, random };
 inline const std::vector<std::string> sampler_type_names = {"sobol", "random"};
 
 struct trace_params {
-  int          camera       = 0;
-  int          resolution   = 720;
-  shader_type  shader       = shader_type::implicit;
-  int          samples      = 512;
-  int          bounces      = 4;
-  float        clamp        = 10;
-  uint64_t     seed         = 961748941;
-  bool         envhidden    = false;
-  bool         implicit_mis = true;                  // false: --noimplicitmis
-  mis_type     mis          = mis_type::two_sample;  // less noise at equal time
-  sampler_type sampler      = sampler_type::sobol;   // less noise per sample
-  bool         tentfilter   = false;
-  accel_type   accel        = accel_type::bvh;
-  march_params march        = {};
-  int          pratio       = 8;  // viewer preview downscale
-  float        exposure     = 0;  // output tone mapping, in stops (LDR)
-  bool         filmic       = false;
+  int                camera       = 0;
+  int                resolution   = 720;
+  shader_type        shader       = shader_type::implicit;
+  int                samples      = 512;
+  int                bounces      = 4;
+  float              clamp        = 10;
+  uint64_t           seed         = 961748941;
+  bool               envhidden    = false;
+  bool               implicit_mis = true;            // false: --noimplicitmis
+  mis_type           mis = mis_type::two_sample;     // less noise at equal time
+  sampler_type       sampler = sampler_type::sobol;  // less noise per sample
+  light_sampler_type light_sampler = light_sampler_type::bvh;  // many lights
+  bool               tentfilter    = false;
+  accel_type         accel         = accel_type::bvh;
+  march_params       march         = {};
+  int                pratio        = 8;  // viewer preview downscale
+  float              exposure      = 0;  // output tone mapping, in stops (LDR)
+  bool               filmic        = false;
 };
 
 // -----------------------------------------------------------------------------
