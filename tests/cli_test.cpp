@@ -46,9 +46,9 @@ TEST_CASE("cli: bad options and values fail with a one-line reason") {
            std::string{"--shader nope"}, std::string{"--accel fast"},
            std::string{"--clamp -1"}, std::string{"--output out.gif"},
            std::string{"--stmaxiter 0"}, std::string{"--mis three"},
-           std::string{"--sampler halton"}, std::string{"--seed -1"},
-           std::string{"--samples 4294967297"}, std::string{"--filmic=3"},
-           std::string{"--samples 1e3"}}) {
+           std::string{"--sampler halton"}, std::string{"--lightsampler all"},
+           std::string{"--seed -1"}, std::string{"--samples 4294967297"},
+           std::string{"--filmic=3"}, std::string{"--samples 1e3"}}) {
     auto result = run_ypathtrace(
         "--scene " + example_scene() + " " + args +
         (args.find("--output") == std::string::npos ? " --output " + out : ""));

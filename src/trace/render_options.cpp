@@ -98,6 +98,10 @@ static std::vector<render_option> make_render_option_table() {
   append(choice_option(id::sampler, "sampler", sampler_type_names,
       "Random numbers: sobol (scrambled Sobol points, stratified per pixel) "
       "or random (independent PCG32 numbers, as Yocto/GL)"));
+  append(
+      choice_option(id::lightsampler, "lightsampler", light_sampler_type_names,
+          "How a light is picked per sample: bvh (a tree over the emitters' "
+          "bounds, power and normals), power, or uniform (the seed's)"));
   append(integer_option(id::stmaxiter, "stmaxiter", 1, 1000000, 1, 4096,
       "Sphere-tracing iteration cap"));
   auto accel   = choice_option(id::accel, "accel", accel_type_names,
@@ -162,6 +166,7 @@ static auto visit_option(
               p.implicit_mis});
     case render_option_id::mis: return visit(p.mis);
     case render_option_id::sampler: return visit(p.sampler);
+    case render_option_id::lightsampler: return visit(p.light_sampler);
     case render_option_id::stmaxiter: return visit(p.march.max_iterations);
     case render_option_id::accel: return visit(p.accel);
     case render_option_id::threads: return visit(settings.threads);

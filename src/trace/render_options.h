@@ -39,8 +39,8 @@ struct render_settings {
 enum class render_option_id {
   // clang-format off
   shader, camera, resolution, samples, bounces, clamp, seed, exposure, filmic,
-  envhidden, tentfilter, noimplicitmis, mis, sampler, stmaxiter, accel,
-  threads, pratio
+  envhidden, tentfilter, noimplicitmis, mis, sampler, lightsampler, stmaxiter,
+  accel, threads, pratio
   // clang-format on
 };
 
