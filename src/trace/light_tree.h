@@ -5,9 +5,10 @@
 // "Importance Sampling of Many Lights with Adaptive Tree Splitting" (2018),
 // as pbrt-v4's BVHLightSampler does. Every node bounds its emitters by a box,
 // their total power and a cone of their surface normals; its importance at a
-// point is power * cos(theta') / d^2, where theta' is the smallest angle
-// between a normal of the cone and the direction to the point that the box
-// allows (zero beyond 90 degrees: emission is Lambertian), times the
+// point is power * cos(theta') * falloff(d), the falloff the mean of 1 / d^2
+// over a ball of emitters (light_importance), where theta' is the smallest
+// angle between a normal of the cone and the direction to the point that the
+// box allows (zero beyond 90 degrees: emission is Lambertian), times the
 // smallest cosine at the receiver that the box allows. Sampling walks down
 // from the root choosing a child in proportion to its importance; the
 // probability of an emitter is the product of the choices on its path, which
@@ -55,31 +56,44 @@ light_bounds merge(const light_bounds& a, const light_bounds& b);
 void bound_normals(
     const std::vector<vec3f>& normals, float margin, light_bounds& bounds);
 
-// Importance of the bounds at `position`, for a receiver whose normal
-// (toward the side it scatters to) is `normal`, or {0, 0, 0} for a receiver
-// that scatters to every side (transmission, media).
-float light_importance(
-    const light_bounds& bounds, vec3f position, vec3f normal);
-
 // -----------------------------------------------------------------------------
 // TREE
 // -----------------------------------------------------------------------------
 
-// A node: a leaf holds one emitter (`index` in the list the tree was made
-// from), an interior node its two children at `index` and `index + 1`.
+// A node, as its importance reads it: the sphere around its box, its power
+// and its normals' cone (with the sine too: no square root per visit). A
+// leaf holds one emitter (`index` in the list the tree was made from), an
+// interior node its two children at `index` and `index + 1` (one cache line
+// pair for each choice).
 struct light_node {
-  light_bounds bounds = {};
-  int          index  = invalidid;
-  bool         leaf   = false;
+  vec3f center     = {0, 0, 0};
+  float radius2    = 0;
+  vec3f axis       = {0, 0, 1};
+  float cos_spread = -1;
+  float sin_spread = 0;
+  float power      = 0;
+  int   index      = invalidid;
+  bool  leaf       = false;
+  bool  two_sided  = false;
 };
 
-// The tree, nodes in build order (a parent before its children), and for
-// each emitter its leaf (invalidid: none) and the path from the root to it:
-// bit k set means the second child at depth k.
+// The node of some bounds (index and leaf unset).
+light_node make_light_node(const light_bounds& bounds);
+
+// Importance of a node at `position`, for a receiver whose normal (toward
+// the side it scatters to) is `normal`, or {0, 0, 0} for a receiver that
+// scatters to every side (transmission, media).
+float light_importance(const light_node& node, vec3f position, vec3f normal);
+
+// The tree, nodes in build order (a parent before its children), the reach
+// of every node (for rays, see visit_light_tree), and for each emitter its
+// leaf (invalidid: none) and the path from the root to it: bit k set means
+// the second child at depth k.
 struct light_tree {
-  std::vector<light_node> nodes  = {};
-  std::vector<int>        leaves = {};
-  std::vector<uint64_t>   trails = {};
+  std::vector<light_node> nodes   = {};
+  std::vector<bbox3f>     reaches = {};
+  std::vector<int>        leaves  = {};
+  std::vector<uint64_t>   trails  = {};
 };
 
 // Build the tree over emitters with positive power (the others get no leaf
@@ -123,9 +137,9 @@ inline void visit_light_tree(const light_tree& tree, vec3f position,
     vec3f normal, vec3f direction, bool weighted, const Visit& visit) {
   if (tree.nodes.empty()) return;
   auto& root = tree.nodes[0];
-  if (!may_reach(root.bounds.reach, position, direction)) return;
+  if (!may_reach(tree.reaches[0], position, direction)) return;
   if (root.leaf) {
-    if (!weighted || light_importance(root.bounds, position, normal) > 0)
+    if (!weighted || light_importance(root, position, normal) > 0)
       visit(root.index, 1.0f);
     return;
   }
@@ -147,15 +161,15 @@ inline void visit_light_tree(const light_tree& tree, vec3f position,
     auto& second = tree.nodes[node.index + 1];
     auto  p0 = 1.0f, p1 = 1.0f;
     if (weighted) {
-      auto i0 = light_importance(first.bounds, position, normal);
-      auto i1 = light_importance(second.bounds, position, normal);
+      auto i0 = light_importance(first, position, normal);
+      auto i1 = light_importance(second, position, normal);
       if (i0 + i1 <= 0) continue;
       p0 = i0 / (i0 + i1);
       p1 = i1 / (i0 + i1);
     }
-    if (p1 > 0 && may_reach(second.bounds.reach, position, direction))
+    if (p1 > 0 && may_reach(tree.reaches[node.index + 1], position, direction))
       stack[size++] = {node.index + 1, current.probability * p1};
-    if (p0 > 0 && may_reach(first.bounds.reach, position, direction))
+    if (p0 > 0 && may_reach(tree.reaches[node.index], position, direction))
       stack[size++] = {node.index, current.probability * p0};
   }
 }
