@@ -477,8 +477,11 @@ static float box_light_pdf(
 }
 
 // Direction toward a point of the box's faces.
-static vec3f sample_box_light(
-    const trace_object& object, vec3f position, float rel, vec2f ruv) {
+// Direction toward a point of the box's faces, and its solid-angle pdf, the
+// one box_light_pdf() gives: the point sampled is where the ray enters the
+// box (or, from inside, leaves it).
+static vec3f sample_box_light(const trace_object& object, vec3f position,
+    float rel, vec2f ruv, float& pdf) {
   auto  s = object.shape.size;
   auto  p = transform_point(object.local_from_world, position);
   float weights[6];
@@ -493,9 +496,14 @@ static vec3f sample_box_light(
     r -= weights[k];
   }
   while (weights[face] <= 0) face--;  // rounding past the last weight
-  auto point =
-      transform_point(object.world_from_local, box_face_point(s, face, ruv));
-  return normalize(point - position);
+  auto point = box_face_point(s, face, ruv);
+  auto to    = point - p;
+  auto t     = length(to);
+  auto along = std::abs(at(to, face / 2));
+  pdf        = along > 0 ? weights[face] / total * t * t * t /
+                        (along * box_face_area(s, face))
+                         : 0;
+  return normalize(transform_point(object.world_from_local, point) - position);
 }
 
 // Solid-angle pdf of the cone of a light's sphere: uniform inside it, or over
@@ -515,12 +523,19 @@ static float cone_light_pdf(
   return sample_cone_pdf(sphere_cone_size(r2, d2));
 }
 
+// Direction in the cone of a light's sphere, and its pdf (cone_light_pdf()'s
+// but at the rim, where rounding may leave the direction just outside).
 static vec3f sample_cone_light(
-    const trace_light& light, vec3f position, vec2f ruv) {
+    const trace_light& light, vec3f position, vec2f ruv, float& pdf) {
   auto to = light.center - position;
   auto d2 = dot(to, to), r2 = light.radius * light.radius;
-  if (d2 <= r2) return sample_sphere(ruv);
-  return sample_cone(to / std::sqrt(d2), sphere_cone_size(r2, d2), ruv);
+  if (d2 <= r2) {
+    pdf = 1 / (4 * pif);
+    return sample_sphere(ruv);
+  }
+  auto size = sphere_cone_size(r2, d2);
+  pdf       = sample_cone_pdf(size);
+  return sample_cone(to / std::sqrt(d2), size, ruv);
 }
 
 // Solid-angle pdf of an environment light (and, for a textured one, start
@@ -580,21 +595,21 @@ light_sample sample_lights(const scene_data& scene, const accel_data& accel,
   if (pick.index < 0 || !(pick.probability > 0)) return {};
   auto& light     = lights.lights[pick.index];
   auto  direction = vec3f{0, 0, 0};
+  auto  pdf       = 0.0f;  // the density BSDF samples see, direction_pdf()
   switch (light.shape) {
     case light_shape::cone:
-      direction = sample_cone_light(light, context.position, ruv);
+      direction = sample_cone_light(light, context.position, ruv, pdf);
       break;
     case light_shape::box:
       direction = sample_box_light(
-          accel.objects[light.object], context.position, rel, ruv);
+          accel.objects[light.object], context.position, rel, ruv, pdf);
       break;
     case light_shape::environment:
       direction = sample_environment_light(scene, light, rel, ruv);
+      pdf       = environment_light_pdf(scene, lights, light, direction);
       break;
   }
-  // The density of the direction as every BSDF sample will see it.
-  auto pdf = pick.probability * direction_pdf(scene, accel, lights, light,
-                                    context.position, direction);
+  pdf *= pick.probability;
   if (!(pdf > 0)) return {};
   return {pick.index, direction, pdf};
 }

@@ -155,6 +155,17 @@ TEST_CASE("lights: box and sphere light pdfs integrate to 1") {
           " sampler ", light_sampler_type_names[(int)sampler]);
       CHECK(integrate_pdf(scene, accel, lights, context, 1200) ==
             doctest::Approx(1.0).epsilon(0.02));
+      // A sample's pdf (computed from the point sampled) is the one BSDF
+      // samples see along its direction.
+      auto rng = make_rng(31);
+      for (auto k = 0; k < 1000; k++) {
+        auto sample = draw_light(scene, accel, lights, context, rng);
+        REQUIRE(sample.light >= 0);
+        CHECK(sample.pdf ==
+              doctest::Approx(sample_light_pdf(scene, accel, lights, context,
+                                  sample.light, sample.direction))
+                  .epsilon(1e-3));
+      }
     }
   }
 }

@@ -118,14 +118,15 @@ static bool blocks_without_emission(
 // transmittance, both deterministically; any other surface blocks. Other
 // emitters add nothing here: their own light samples count them. The object
 // alone is traced first: a direction of its cone that misses it carries
-// nothing, and no scene ray is traced for it.
+// nothing, and no scene ray is traced for it (box lights aim only at their
+// box).
 static vec3f eval_light(const scene_data& scene, const accel_data& accel,
     const march_params& march, const lights_data& lights, int light, ray3f ray,
     int64_t& evaluations) {
   auto& source = lights.lights[light];
   auto  object =
       source.shape == light_shape::environment ? invalidid : source.object;
-  if (object >= 0) {
+  if (object >= 0 && source.shape == light_shape::cone) {
     auto first = intersect_object(accel, march, object, ray);
     evaluations += first.evaluations;
     if (!first.hit) return {0, 0, 0};
