@@ -2,10 +2,15 @@
 #
 # Usage (Blender 3.4, headless, CPU):
 #   blender -b --factory-startup -noaudio -t 1 -P blender_render.py -- \
-#       SCENE.cycles.json OUTPUT_PREFIX SAMPLES BATCHES [FIRST_SEED [BOUNCES]]
+#       SCENE.cycles.json OUTPUT_PREFIX SAMPLES BATCHES [FIRST_SEED [BOUNCES
+#       [DETAIL]]]
 # writes OUTPUT_PREFIX_<k>.exr for k = 0 .. BATCHES-1, each an independent
 # render (Cycles seed FIRST_SEED + k) of SAMPLES samples per pixel, linear
 # RGBA float. BOUNCES is ypathtrace's --bounces (default 16), see below.
+# A description with `objects` (make_sdfunction.py) is built object by
+# object instead: boxes, box frames, spheres (icospheres subdivided DETAIL
+# times, default 6), tori (64 x 32 quads times 4^(DETAIL - 4)) and capped
+# cones (64 x 2^(DETAIL - 4) sides), each placed by its matrix.
 #
 # The scene is built from meshes only: the sphere is an icosphere
 # subdivided 6 times (81920 triangles, smooth shaded), the floor a box mesh,
@@ -205,9 +210,95 @@ def principled(nodes, base_color, roughness):
     return bsdf
 
 
-def build_scene(desc, bounces):
+def shape_mesh(spec, detail):
+    # The mesh of one primitive in its own space (ours: y up), as the SDF
+    # defines it (src/sdf/sdf_primitives.h).
+    bm = bmesh.new()
+    shape = spec["shape"]
+    if shape == "box":
+        lo, hi = spec["min"], spec["max"]
+        bmesh.ops.create_cube(bm, size=1.0)
+        bmesh.ops.transform(bm, verts=bm.verts, matrix=Matrix.Translation(
+            [(a + b) / 2 for a, b in zip(lo, hi)]) @ Matrix.Diagonal(
+            [b - a for a, b in zip(lo, hi)] + [1]))
+    elif shape == "box_frame":
+        # Twelve bars of width 2 thickness, flush with the faces of the box
+        # of half sizes `half` (Inigo Quilez's sdBoxFrame).
+        h, t = spec["half"], spec["thickness"]
+        for axis in range(3):
+            for s1 in (-1, 1):
+                for s2 in (-1, 1):
+                    center, size = [0.0] * 3, [2 * t] * 3
+                    size[axis] = 2 * h[axis]
+                    others = [a for a in range(3) if a != axis]
+                    center[others[0]] = s1 * (h[others[0]] - t)
+                    center[others[1]] = s2 * (h[others[1]] - t)
+                    bar = bmesh.ops.create_cube(bm, size=1.0)
+                    bmesh.ops.transform(bm, verts=bar["verts"],
+                                        matrix=Matrix.Translation(center) @
+                                        Matrix.Diagonal(size + [1]))
+    elif shape == "sphere":
+        bmesh.ops.create_icosphere(bm, subdivisions=detail,
+                                   radius=spec["radius"])
+    elif shape == "torus":
+        # Ring of radius r1 about the local y axis, tube radius r2.
+        major, minor = 64 * 2 ** (detail - 4), 32 * 2 ** (detail - 4)
+        r1, r2 = spec["r1"], spec["r2"]
+        rows = []
+        for i in range(major):
+            u = 2 * math.pi * i / major
+            row = []
+            for j in range(minor):
+                v = 2 * math.pi * j / minor
+                r = r1 + r2 * math.cos(v)
+                row.append(bm.verts.new((r * math.cos(u), r2 * math.sin(v),
+                                         r * math.sin(u))))
+            rows.append(row)
+        for i in range(major):
+            for j in range(minor):
+                a, b = rows[i][j], rows[(i + 1) % major][j]
+                c, d = rows[(i + 1) % major][(j + 1) % minor], rows[i][(j + 1) % minor]
+                bm.faces.new((a, d, c, b))
+    elif shape == "capped_cone":
+        # Axis y, y in [-height, height], r1 at the bottom, r2 at the top.
+        h = spec["height"]
+        bmesh.ops.create_cone(bm, cap_ends=True, cap_tris=False,
+                              segments=64 * 2 ** (detail - 4),
+                              radius1=spec["r1"], radius2=spec["r2"],
+                              depth=2 * h)
+        bmesh.ops.rotate(bm, verts=bm.verts,
+                         matrix=Matrix.Rotation(math.radians(-90), 3, "X"))
+    else:
+        raise ValueError("unknown shape: " + shape)
+    # Curved surfaces smooth, flat faces (box sides, cone caps) flat.
+    for face in bm.faces:
+        face.smooth = shape in ("sphere", "torus") or (
+            shape == "capped_cone" and abs(face.normal.y) < 0.999)
+    return bm
+
+
+def build_objects(desc, detail):
+    # Every object of `desc["objects"]` (make_sdfunction.py), each with its
+    # own world_from_local matrix and material.
+    triangles = 0
+    for k, spec in enumerate(desc["objects"]):
+        bm = shape_mesh(spec, detail)
+        triangles += sum(len(face.verts) - 2 for face in bm.faces)
+        matrix = Matrix([row for row in spec["matrix"]])
+        add_mesh_object(spec["name"], bm, matrix,
+                        make_material(f"{spec['name']}_{k}", spec["material"]))
+    print(f"blender_render.py: {len(desc['objects'])} objects, "
+          f"{triangles} triangles")
+
+
+def build_scene(desc, bounces, detail=6):
     clear_scene()
     scene = bpy.context.scene
+    if "objects" in desc:
+        build_objects(desc, detail)
+        build_world_camera(scene, desc)
+        build_settings(scene, desc, bounces)
+        return
 
     # Floor: a box mesh with the same extent as our box.
     fmin, fmax = desc["floor"]["min"], desc["floor"]["max"]
@@ -240,7 +331,11 @@ def build_scene(desc, bounces):
         face.smooth = True
     add_mesh_object("sphere", bm, Matrix.Translation(sphere["center"]),
                     make_material("sphere", sphere["material"]))
+    build_world_camera(scene, desc)
+    build_settings(scene, desc, bounces)
 
+
+def build_world_camera(scene, desc):
     # World: constant colour, or a lat-long image (make_scenes.py samples it
     # at Cycles' texel centres) with linear interpolation.
     world = bpy.data.worlds.new("world")
@@ -274,6 +369,8 @@ def build_scene(desc, bounces):
     scene.collection.objects.link(camera)
     scene.camera = camera
 
+
+def build_settings(scene, desc, bounces):
     # Render settings.
     render = scene.render
     render.engine = "CYCLES"
@@ -324,7 +421,8 @@ def main():
     prefix, samples, batches = argv[1], int(argv[2]), int(argv[3])
     first_seed = int(argv[4]) if len(argv) > 4 else 1
     bounces = int(argv[5]) if len(argv) > 5 else 16
-    build_scene(desc, bounces)
+    detail = int(argv[6]) if len(argv) > 6 else 6
+    build_scene(desc, bounces, detail)
     scene = bpy.context.scene
     scene.cycles.samples = samples
     for k in range(batches):

@@ -14,8 +14,11 @@
 //       --ours ours_0.exr ours_1.exr ... --ref cycles_0.exr ...
 //       [--png side_by_side.png]
 //   crosscheck_compare stack --output montage.png a.png b.png ...
+//   crosscheck_compare relmse --ref reference.exr a.exr b.exr ...
 // (the second stacks images of the same width top to bottom, for the
-// README's montage of side-by-side images).
+// README's montage of side-by-side images; the third prints the relative
+// MSE of each image against a reference, mean over pixels and channels of
+// (x - ref)^2 / (ref^2 + 0.01), as bench/bench_lights.cpp, then their mean).
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -209,6 +212,22 @@ static image_data stack_images(const std::vector<std::string>& filenames) {
   return stack;
 }
 
+// Relative MSE of an image against a reference of the same size.
+static double relative_mse(const image_data& image, const image_data& ref,
+    const std::string& filename) {
+  if (image.width != ref.width || image.height != ref.height)
+    throw_io_error(filename, "size differs from the reference's");
+  auto sum = 0.0;
+  for (size_t k = 0; k < image.pixels.size(); k++) {
+    for (auto c = 0; c < 3; c++) {
+      auto x = (double)(&image.pixels[k].x)[c];
+      auto r = (double)(&ref.pixels[k].x)[c];
+      sum += (x - r) * (x - r) / (r * r + 0.01);
+    }
+  }
+  return sum / (3.0 * image.pixels.size());
+}
+
 int main(int argc, const char** argv) {
   auto mask_file  = std::string{};
   auto names_file = std::string{};
@@ -228,7 +247,29 @@ int main(int argc, const char** argv) {
   auto stack        = app.add_subcommand("stack", "Stack images top to bottom");
   stack->add_option("--output", stack_output, "Image to write")->required();
   stack->add_option("images", stack_inputs, "Images of one width")->required();
+  auto relmse_ref    = std::string{};
+  auto relmse_inputs = std::vector<std::string>{};
+  auto relmse =
+      app.add_subcommand("relmse", "Relative MSE against a reference");
+  relmse->add_option("--ref", relmse_ref, "Reference image")->required();
+  relmse->add_option("images", relmse_inputs, "Images")->required();
   CLI11_PARSE(app, argc, argv);
+  if (relmse->parsed()) {
+    try {
+      auto ref = load_image(relmse_ref);
+      auto sum = 0.0;
+      for (auto& filename : relmse_inputs) {
+        auto error = relative_mse(load_image(filename), ref, filename);
+        std::printf("%s %.6g\n", filename.c_str(), error);
+        sum += error;
+      }
+      std::printf("mean %.6g\n", sum / relmse_inputs.size());
+    } catch (const io_error& error) {
+      std::fprintf(stderr, "%s\n", error.what());
+      return 1;
+    }
+    return 0;
+  }
   if (stack->parsed()) {
     try {
       save_image(stack_output, stack_images(stack_inputs));
