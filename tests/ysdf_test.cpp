@@ -2,6 +2,8 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
+
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -66,10 +68,20 @@ TEST_CASE("ysdf: convert round trips through every format") {
   auto output = load_grid(from, grid_format::sdfgen);
   CHECK(output.dims == input.dims);
   CHECK(output.spacing == doctest::Approx(input.spacing));
+  // The .vdb is a narrow-band level set: values within 3 voxels of the
+  // surface are kept, the others become +-3 voxels with their sign.
+  auto band  = 3 * input.spacing;
   auto worst = 0.0f;
-  for (size_t i = 0; i < input.values.size(); i++)
-    worst = std::max(worst, std::abs(output.values[i] - input.values[i]));
+  for (size_t i = 0; i < input.values.size(); i++) {
+    auto expected = std::clamp(input.values[i], -band, band);
+    worst         = std::max(worst, std::abs(output.values[i] - expected));
+  }
   CHECK(worst < 1e-5f);  // SDFGen text keeps 6+ significant digits
+  auto info = run_ysdf("info " + (dir / "a.vdb").string());
+  INFO(info.output);
+  CHECK(info.output.find("band:     +-0.15 (background, 3 voxels)") !=
+        std::string::npos);
+  CHECK(info.output.find("active:   ") != std::string::npos);
 }
 
 TEST_CASE("ysdf: bake a sphere and mesh it") {

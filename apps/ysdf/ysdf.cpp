@@ -146,8 +146,18 @@ void run_info(const std::string& filename, bool binary, bool text) {
   std::printf("dims:     %s (%lld samples)\n", dims_text(grid.dims).c_str(),
       (long long)grid_samples(grid.dims));
   std::printf("spacing:  %g\n", grid.spacing);
-  std::printf("origin:   %s (first sample in file units)\n",
-      vec_text(grid.origin).c_str());
+  std::printf("origin:   %s (first sample in file units; %s)\n",
+      vec_text(grid.origin).c_str(),
+      grid.placed_by_file ? "scenes place the grid by it"
+                          : "scenes put it at the instance's origin");
+  if (grid.file_active_voxels >= 0) {
+    std::printf("active:   %lld voxels (%.1f%% of the dense box)\n",
+        (long long)grid.file_active_voxels,
+        100.0 * (double)grid.file_active_voxels /
+            (double)grid_samples(grid.dims));
+    std::printf("band:     +-%g (background, %g voxels)\n",
+        grid.file_background, grid.file_background / grid.spacing);
+  }
   std::printf("extent:   %s\n", vec_text(extent).c_str());
   std::printf("values:   %g .. %g\n", stats.min, stats.max);
   std::printf(
@@ -157,7 +167,7 @@ void run_info(const std::string& filename, bool binary, bool text) {
   std::printf("boundary: %lld samples < 0 on the box%s\n",
       (long long)stats.negative_boundary,
       stats.negative_boundary ? " (the box closes the surface there)" : "");
-  std::printf("memory:   %.2f MiB (samples and bricks)\n",
+  std::printf("memory:   %.2f MiB (samples and empty-space skipping)\n",
       grid_memory(grid) / (1024.0 * 1024.0));
   std::printf("loaded:   %.3f s\n", load_s);
   if (stats.min > 0)

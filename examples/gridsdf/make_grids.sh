@@ -7,8 +7,10 @@
 # mesh (BUNNY_MESH, default ../shared/meshes/bunny.ply next to the repo) via
 # OpenVDB; without it a blobby stand-in bunny is baked from ellipsoids. The
 # other two shapes are baked from analytic CSG. Every grid has voxel 0.002
-# and 3 voxels of padding, and bounds chosen so that its first sample sits
-# at a known place: the vol_instances' frames in gridsdf.json rely on it.
+# and 3 voxels of padding. The .sdf grids have bounds chosen so that their
+# first sample sits at a known place, which scenes put at the instance's
+# origin: the vol_instances' frames in gridsdf.json rely on it. The .vdb is
+# placed by its own transform (where it was baked), as Blender places it.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 ysdf="${1:-$here/../../build/release/ysdf}"

@@ -201,7 +201,9 @@ class Scene:
                  transform=None, name=None):
         """A grid file (.sdf, .vdb, .vol) placed in the scene: `scale`
         multiplies its extent and values, `transform` (4x4 world_from_local)
-        places it. An .sdf is SDFGen text unless binary=True (skanti)."""
+        places it: an .sdf or .vol with its first sample at the local
+        origin, a .vdb where its own transform puts it. An .sdf is SDFGen
+        text unless binary=True (skanti)."""
         path = os.path.abspath(os.fspath(path))
         volume = {"uri": path}
         if name is not None:

@@ -100,7 +100,8 @@ struct volume_data {
 
 // A placed grid (the seed's `vol_instances`): `scale` multiplies the grid's
 // extent and values; the grid is evaluated at
-// transform_point(local_from_world, p_world) / scale.
+// transform_point(local_from_world, p_world) / scale - grid_placement(grid)
+// (the file's own placement of a .vdb, see grid_data).
 struct vol_instance_data {
   std::string name             = "";
   int         volume           = invalidid;

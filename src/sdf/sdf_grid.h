@@ -51,8 +51,21 @@ inline constexpr int64_t grid_max_samples = int64_t{1} << 31;
 struct grid_data {
   vec3i              dims    = {0, 0, 0};
   float              spacing = 1;          // distance between samples
-  vec3f              origin  = {0, 0, 0};  // file origin, informational only
+  vec3f              origin  = {0, 0, 0};  // sample (0,0,0) in file space
   std::vector<float> values  = {};
+
+  // How a scene places the grid. The seed's rule, for .sdf (and .vol): the
+  // first sample is the instance's local origin, so `origin` is only
+  // informational. A .vdb is placed by its own index-to-world transform,
+  // as Blender and Houdini place it: sample (i,j,k) sits at
+  // origin + spacing*(i,j,k) in the instance's local space.
+  bool placed_by_file = false;
+  // Of a level set file (.vdb): its active voxels and its background, the
+  // half width of the narrow band in world units (outside the band the
+  // samples hold +-background, a bound of the distance); -1 and 0 for the
+  // dense formats.
+  int64_t file_active_voxels = -1;
+  float   file_background    = 0;
 
   // Acceleration data (update_grid_accel), over blocks of 2x2x2 voxels (x
   // fastest, dims/2 blocks per axis; voxels past the box count as empty).
@@ -93,6 +106,12 @@ bool has_grid_accel(const grid_data& grid);
 
 // A grid of `dims` samples, all `value`, with its acceleration data.
 grid_data make_grid(vec3i dims, float spacing, vec3f origin, float value);
+
+// Where grid space's origin sits in the instance's local space: `origin`
+// for grids placed by their file, else (0,0,0).
+inline vec3f grid_placement(const grid_data& grid) {
+  return grid.placed_by_file ? grid.origin : vec3f{0, 0, 0};
+}
 
 // Box of the grid in grid space: [0, spacing*(dims-1)].
 bbox3f grid_bounds(const grid_data& grid);

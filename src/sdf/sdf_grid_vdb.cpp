@@ -4,11 +4,24 @@
 // active voxels' bounding box (for a level set that is the narrow band, so
 // the box already holds the surface with a positive border). Voxels without
 // an active value read the tree's tile or background value, which OpenVDB
-// keeps signed for level sets (-background inside, +background outside).
+// keeps signed for level sets (-background inside, +background outside):
+// a bound of the distance, as the band is the set of voxels closer than the
+// background. The grid is placed by the file's index-to-world transform.
+//
+// Saving writes a level set as OpenVDB's own tools do (createLevelSet,
+// meshToLevelSet): grid class level set, background = 3 voxels, active
+// voxels only within that narrow band, inactive values +-background by
+// sign, uniform regions pruned to tiles.
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/Dense.h>
+#include <openvdb/tools/Prune.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
 
 #include <mutex>
 #include <sstream>
@@ -111,31 +124,110 @@ grid_data load_vdb_grid(const std::string& filename) {
   grid.spacing = spacing;
   auto origin  = level_set->transform().indexToWorld(lo);
   grid.origin  = {(float)origin.x(), (float)origin.y(), (float)origin.z()};
+  grid.placed_by_file     = true;
+  grid.file_active_voxels = (int64_t)level_set->activeVoxelCount();
+  grid.file_background    = level_set->background();
   assign_huge(grid.values, (size_t)grid_samples(grid.dims), 0.0f);
-  auto accessor = level_set->getConstAccessor();
-  auto index    = size_t{0};
-  for (auto k = 0; k < grid.dims.z; k++) {
-    for (auto j = 0; j < grid.dims.y; j++) {
-      for (auto i = 0; i < grid.dims.x; i++) {
-        auto v = accessor.getValue(lo.offsetBy(i, j, k));
-        if (!std::isfinite(v))
-          throw_io_error(
-              filename, name + "voxel (" + std::to_string(lo.x() + i) + "," +
-                            std::to_string(lo.y() + j) + "," +
-                            std::to_string(lo.z() + k) + ") is not finite");
-        grid.values[index++] = v;
-      }
-    }
+  // Values x fastest, as ours (OpenVDB's LayoutXYZ), copied in parallel.
+  auto dense = openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ>(
+      box, grid.values.data());
+  openvdb::tools::copyToDense(*level_set, dense);
+  for (auto n = size_t{0}; n < grid.values.size(); n++) {
+    if (std::isfinite(grid.values[n])) continue;
+    auto ijk = lo + dense.offsetToLocalCoord(n);
+    throw_io_error(filename, name + "voxel (" + std::to_string(ijk.x()) + "," +
+                                 std::to_string(ijk.y()) + "," +
+                                 std::to_string(ijk.z()) + ") is not finite");
   }
   return grid;
 }
 
+// Half width of the narrow band of saved level sets, in voxels (OpenVDB's
+// LEVEL_SET_HALF_WIDTH).
+static constexpr int vdb_half_width = 3;
+
+// The samples a saved level set keeps active: those within the band
+// (|value| < background), every corner of a voxel whose corners change
+// sign (so that a surface voxel keeps its values even where the data is no
+// distance, e.g. skanti's voxel counts), and the negative samples on the
+// box (where the box closes the surface). The rest only keep their sign,
+// and the surface traced from the file is the same.
+static std::vector<uint8_t> level_set_band(
+    const grid_data& grid, float background) {
+  auto  band = std::vector<uint8_t>(grid.values.size(), 0);
+  auto& d    = grid.dims;
+  auto  at   = [&](int i, int j, int k) {
+    return (size_t)i + (size_t)d.x * ((size_t)j + (size_t)d.y * k);
+  };
+  for (auto k = 0; k < d.z; k++) {
+    for (auto j = 0; j < d.y; j++) {
+      for (auto i = 0; i < d.x; i++) {
+        auto v        = grid.values[at(i, j, k)];
+        auto boundary = i == 0 || j == 0 || k == 0 || i == d.x - 1 ||
+                        j == d.y - 1 || k == d.z - 1;
+        if (std::abs(v) < background || (boundary && v < 0))
+          band[at(i, j, k)] = 1;
+        if (i == d.x - 1 || j == d.y - 1 || k == d.z - 1) continue;
+        auto negative = 0;
+        for (auto c = 0; c < 8; c++)
+          negative += grid_value(grid, i + (c & 1), j + ((c >> 1) & 1),
+                          k + (c >> 2)) < 0;
+        if (negative == 0 || negative == 8) continue;
+        for (auto c = 0; c < 8; c++)
+          band[at(i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2))] = 1;
+      }
+    }
+  }
+  return band;
+}
+
+// The samples [start, start + 8)^3 of the grid into the level set's tree
+// (one leaf's extent): a leaf when the block has a band sample, else a tile
+// of -background when it is inside, else nothing (the background). A block
+// without a band sample has one sign (a sign change marks its voxel's
+// corners), and a negative one never reaches past the box (negative box
+// samples are in the band).
+static void add_level_set_block(openvdb::FloatGrid& level_set,
+    const grid_data& grid, const std::vector<uint8_t>& band, vec3i start) {
+  auto  background = level_set.background();
+  auto  size       = (int)openvdb::FloatTree::LeafNodeType::DIM;
+  auto& d          = grid.dims;
+  auto end = vec3i{std::min(start.x + size, d.x), std::min(start.y + size, d.y),
+      std::min(start.z + size, d.z)};
+  auto index = [&](int i, int j, int k) {
+    return (size_t)i + (size_t)d.x * ((size_t)j + (size_t)d.y * k);
+  };
+  auto active = false;
+  for (auto k = start.z; k < end.z; k++)
+    for (auto j = start.y; j < end.y; j++)
+      for (auto i = start.x; i < end.x; i++) active |= band[index(i, j, k)];
+  if (!active) {
+    if (grid.values[index(start.x, start.y, start.z)] < 0)
+      level_set.tree().addTile(
+          1, openvdb::Coord(start.x, start.y, start.z), -background, false);
+    return;
+  }
+  auto leaf =
+      level_set.tree().touchLeaf(openvdb::Coord(start.x, start.y, start.z));
+  for (auto k = start.z; k < end.z; k++) {
+    for (auto j = start.y; j < end.y; j++) {
+      for (auto i = start.x; i < end.x; i++) {
+        auto n   = index(i, j, k);
+        auto v   = grid.values[n];
+        auto ijk = openvdb::Coord(i, j, k);
+        if (band[n]) {
+          leaf->setValueOn(ijk, v);
+        } else {
+          leaf->setValueOff(ijk, v < 0 ? -background : background);
+        }
+      }
+    }
+  }
+}
+
 void save_vdb_grid(const std::string& filename, const grid_data& grid) {
   init_openvdb();
-  // Every sample becomes an active voxel, so that the file reads back to
-  // the same dense grid; voxels beyond it read +3 voxels (the usual
-  // level-set half width), which is outside.
-  auto level_set = openvdb::FloatGrid::create(3 * grid.spacing);
+  auto level_set = openvdb::FloatGrid::create(vdb_half_width * grid.spacing);
   level_set->setName("sdf");
   level_set->setGridClass(openvdb::GRID_LEVEL_SET);
   auto transform =
@@ -143,15 +235,13 @@ void save_vdb_grid(const std::string& filename, const grid_data& grid) {
   transform->postTranslate(
       openvdb::Vec3d(grid.origin.x, grid.origin.y, grid.origin.z));
   level_set->setTransform(transform);
-  auto accessor = level_set->getAccessor();
-  auto index    = size_t{0};
-  for (auto k = 0; k < grid.dims.z; k++) {
-    for (auto j = 0; j < grid.dims.y; j++) {
-      for (auto i = 0; i < grid.dims.x; i++) {
-        accessor.setValueOn(openvdb::Coord(i, j, k), grid.values[index++]);
-      }
-    }
-  }
+  auto band = level_set_band(grid, level_set->background());
+  auto size = (int)openvdb::FloatTree::LeafNodeType::DIM;
+  for (auto k = 0; k < grid.dims.z; k += size)
+    for (auto j = 0; j < grid.dims.y; j += size)
+      for (auto i = 0; i < grid.dims.x; i += size)
+        add_level_set_block(*level_set, grid, band, {i, j, k});
+  openvdb::tools::pruneLevelSet(level_set->tree());
   // OpenVDB writes by name: the whole file goes to the temporary of the
   // file layer, renamed only when complete.
   auto out = output_file{filename};

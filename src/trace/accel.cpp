@@ -81,9 +81,11 @@ accel_data make_accel(
     // A scene parsed without its files has no grids: an empty one is never
     // hit, as before.
     if (!object.grid) object.grid = std::make_shared<const grid_data>();
-    // Grid space = instance space divided by the scale.
+    // Grid space = instance space divided by the scale, less the file's
+    // placement (a .vdb's own transform; the seed's formats have none).
+    auto placement          = grid_placement(*object.grid);
     auto unscale            = frame3f{{1 / instance.scale, 0, 0},
-        {0, 1 / instance.scale, 0}, {0, 0, 1 / instance.scale}, {0, 0, 0}};
+        {0, 1 / instance.scale, 0}, {0, 0, 1 / instance.scale}, -placement};
     object.local_from_world = unscale * instance.local_from_world;
     object.local_bounds     = grid_solid_bounds(*object.grid);
     object.exact            = true;

@@ -47,13 +47,14 @@ static material_point eval_material(const scene_data& scene,
   auto  textured = material.color_tex >= 0 || material.emission_tex >= 0 ||
                   material.roughness_tex >= 0 || material.scattering_tex >= 0;
   if (!textured) return make_material_point(material);
-  // Object space before any grid scale, so textures keep their size when
-  // a grid instance is scaled.
-  auto scale = object.kind == object_kind::grid
-                   ? scene.vol_instances[object.index].scale
-                   : 1.0f;
-  auto p     = transform_point(object.local_from_world, position) * scale;
-  auto n     = normalize(transform_vector(object.local_from_world, normal));
+  // Object space before any grid scale and placement (the instance's
+  // space), so textures keep their size when a grid instance is scaled.
+  auto is_grid = object.kind == object_kind::grid;
+  auto scale   = is_grid ? scene.vol_instances[object.index].scale : 1.0f;
+  auto offset  = is_grid ? grid_placement(*object.grid) : vec3f{0, 0, 0};
+  auto p =
+      (transform_point(object.local_from_world, position) + offset) * scale;
+  auto n = normalize(transform_vector(object.local_from_world, normal));
   return make_material_point(material,
       eval_triplanar(scene, material.color_tex, p, n),
       eval_triplanar(scene, material.emission_tex, p, n),
