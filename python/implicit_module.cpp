@@ -45,6 +45,7 @@
 #include "sdf/sdf_mesh_io.h"
 #include "sdf/sdf_operator_table.h"
 #include "sdf/sdf_program.h"
+#include "sdf/sdf_tape.h"
 #include "sdf/sdf_vm_io.h"
 #include "trace/render.h"
 #include "trace/render_options.h"
@@ -505,13 +506,17 @@ py::array_t<T> eval_points(py_sdf& sdf, const c_array<T>& points) {
   auto  out    = result.mutable_data();
   {
     py::gil_scoped_release release;
+    // Many points per pass over the clauses.
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096),
         [&](const tbb::blocked_range<size_t>& range) {
-          for (auto i = range.begin(); i < range.end(); i++) {
-            auto p = vec3f{
+          auto block  = std::vector<vec3f>(range.size());
+          auto values = std::vector<float>(range.size());
+          for (auto i = range.begin(); i < range.end(); i++)
+            block[i - range.begin()] = vec3f{
                 (float)in[3 * i], (float)in[3 * i + 1], (float)in[3 * i + 2]};
-            out[i] = (T)eval_sdf(tape, p);
-          }
+          eval_sdf(tape, block.data(), values.data(), block.size());
+          for (auto i = range.begin(); i < range.end(); i++)
+            out[i] = (T)values[i - range.begin()];
         });
   }
   return result;

@@ -7,8 +7,8 @@
 #include <cmath>
 
 #include "../util/error.h"
+#include "sdf_field.h"
 #include "sdf_grid.h"
-#include "sdf_prune.h"
 
 namespace implicit {
 

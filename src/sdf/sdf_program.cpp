@@ -84,11 +84,10 @@ sdf_program make_primitive_program(const sdf_node& node) {
 }
 
 // -----------------------------------------------------------------------------
-// TAPES
+// EVALUATION
 // -----------------------------------------------------------------------------
 
-// Number of operands of a node (0 for primitives).
-static int operand_count(sdf_type type) {
+int sdf_operand_count(sdf_type type) {
   switch (type) {
     IMPLICIT_SDF_PRIMITIVE_CASES return 0;
     case sdf_type::op_round:
@@ -110,130 +109,6 @@ static int operand_count(sdf_type type) {
   return 0;
 }
 
-// Throw unless every operand comes before its user and is used once, so
-// that the nodes form one tree rooted at the last node.
-static void check_tree(const sdf_program& program) {
-  auto uses = std::vector<char>(program.nodes.size(), 0);
-  for (auto i = 0; i < (int)program.nodes.size(); i++) {
-    auto& node  = program.nodes[i];
-    auto  count = operand_count(node.type);
-    for (auto k = 0; k < count; k++) {
-      auto operand = k == 0 ? node.left : node.right;
-      if (operand < 0 || operand >= i || uses[operand]++)
-        throw io_error("sdf program: node " + std::to_string(i) + " (" +
-                       sdf_type_names[(int)node.type] + ") has operand " +
-                       std::to_string(operand) +
-                       ", expected an unused earlier node");
-    }
-    if (node.type == sdf_type::op_transform &&
-        (node.frame < 0 || node.frame >= (int)program.frames.size()))
-      throw io_error("sdf program: node " + std::to_string(i) +
-                     " (transform) has no frame");
-  }
-}
-
-// Append the steps of `program` in evaluation order: operands before users,
-// the operand needing the larger stack first (Sethi-Ullman numbers), by a
-// post-order walk with an explicit stack. `node_of(i)` and `space_of(i)`
-// give node i's index in the pool and its space.
-template <typename NodeOf, typename SpaceOf>
-static void emit_instrs(const sdf_program& program, const NodeOf& node_of,
-    const SpaceOf& space_of, std::vector<sdf_instr>& instrs) {
-  auto  n     = (int)program.nodes.size();
-  auto& nodes = program.nodes;
-  auto  need  = std::vector<int>(n, 1);
-  for (auto i = 0; i < n; i++) {
-    auto& node  = nodes[i];
-    auto  count = operand_count(node.type);
-    if (count == 1) {
-      need[i] = need[node.left];
-    } else if (count == 2) {
-      auto l = need[node.left], r = need[node.right];
-      need[i] = l == r ? l + 1 : std::max(l, r);
-    }
-  }
-  if (need[n - 1] > sdf_stack_size)
-    throw io_error("sdf program: needs a value stack of " +
-                   std::to_string(need[n - 1]) + " entries");
-  auto stack = std::vector<std::pair<int, bool>>{{n - 1, false}};
-  instrs.reserve(instrs.size() + n);
-  while (!stack.empty()) {
-    auto [index, expanded] = stack.back();
-    stack.pop_back();
-    auto& node    = nodes[index];
-    auto  count   = operand_count(node.type);
-    auto  swapped = count == 2 && need[node.right] > need[node.left];
-    if (!expanded && count > 0) {
-      stack.push_back({index, true});
-      if (count == 2)
-        stack.push_back({swapped ? node.left : node.right, false});
-      stack.push_back({swapped ? node.right : node.left, false});
-      continue;
-    }
-    auto instr    = sdf_instr{};
-    instr.node    = node_of(index);
-    instr.space   = space_of(index);
-    instr.swapped = swapped;
-    if (node.type == sdf_type::op_transform) {
-      // Its map is in the spaces of the primitives below; only a distance
-      // factor other than 1 (a scaling map) is left to apply.
-      instr.scale = program.frame_scales[node.frame];
-      if (instr.scale == 1) continue;
-    }
-    instrs.push_back(instr);
-  }
-}
-
-sdf_tape make_sdf_tape(const sdf_program& program) {
-  auto tape = sdf_tape{};
-  if (program.nodes.empty()) return tape;
-  check_tree(program);
-  for (auto& node : program.nodes)
-    if (is_warp(node.type) || is_math(node.type))
-      throw io_error("sdf program: " + sdf_type_names[(int)node.type] +
-                     " is not supported yet");
-  auto  n     = (int)program.nodes.size();
-  auto& nodes = program.nodes;
-  // Spaces, top-down (users come after their operands, so a reverse pass
-  // sees each parent first): a transform opens a space whose map is its
-  // frame after the parent's map.
-  auto space = std::vector<int>(n, invalidid);
-  for (auto i = n - 1; i >= 0; i--) {
-    auto& node  = nodes[i];
-    auto  inner = space[i];
-    if (node.type == sdf_type::op_transform) {
-      auto& frame = program.frames[node.frame];
-      tape.frames.push_back(inner < 0 ? frame : frame * tape.frames[inner]);
-      inner = (int)tape.frames.size() - 1;
-    }
-    auto count = operand_count(node.type);
-    if (count >= 1) space[node.left] = inner;
-    if (count >= 2) space[node.right] = inner;
-  }
-  tape.nodes  = program.nodes;
-  tape.spaces = std::move(space);
-  emit_instrs(
-      program, [](int index) { return index; },
-      [&](int index) { return tape.spaces[index]; }, tape.instrs);
-  return tape;
-}
-
-std::vector<sdf_instr> make_sdf_instrs(
-    const sdf_program& pruned, const sdf_tape& pool) {
-  auto instrs = std::vector<sdf_instr>{};
-  if (pruned.nodes.empty()) return instrs;
-  check_tree(pruned);
-  emit_instrs(
-      pruned, [&](int index) { return pruned.nodes[index].origin; },
-      [&](int index) { return pool.spaces[pruned.nodes[index].origin]; },
-      instrs);
-  return instrs;
-}
-
-// -----------------------------------------------------------------------------
-// EVALUATION
-// -----------------------------------------------------------------------------
-
 float eval_primitive(const sdf_node& node, vec3f p) {
 #define IMPLICIT_SDF_EVAL(id, name) \
   case sdf_type::id: return eval_##id(node, p);
@@ -246,79 +121,7 @@ float eval_primitive(const sdf_node& node, vec3f p) {
   return flt_max;
 }
 
-float eval_sdf(const sdf_tape& tape, vec3f p) {
-  assert(!tape.instrs.empty());
-  return eval_sdf(
-      tape, tape.instrs.data(), tape.instrs.data() + tape.instrs.size(), p);
-}
-
-float eval_sdf(const sdf_tape& pool, const sdf_instr* begin,
-    const sdf_instr* end, vec3f p) {
-  auto& tape = pool;
-  float stack[sdf_stack_size];
-  auto  top   = 0;  // number of values on the stack
-  auto  space = invalidid;
-  auto  q     = p;  // p in `space`
-  for (auto it = begin; it != end; ++it) {
-    auto& instr = *it;
-    auto& node  = tape.nodes[instr.node];
-    // Binary operators read a (left) and b (right) from the top two entries.
-    auto binary = [&](auto op) {
-      auto b = stack[top - 1], a = stack[top - 2];
-      if (instr.swapped) std::swap(a, b);
-      top--;
-      stack[top - 1] = op(a, b);
-    };
-    switch (node.type) {
-      IMPLICIT_SDF_PRIMITIVE_CASES
-      if (instr.space != space) {
-        space = instr.space;
-        q     = space < 0 ? p : transform_point(tape.frames[space], p);
-      }
-      assert(top < sdf_stack_size);
-      stack[top++] = eval_primitive(node, q);
-      break;
-      case sdf_type::op_union:
-        binary([](float a, float b) { return std::min(a, b); });
-        break;
-      case sdf_type::op_intersection:
-        binary([](float a, float b) { return std::max(a, b); });
-        break;
-      case sdf_type::op_subtraction:
-        binary([](float a, float b) { return std::max(a, -b); });
-        break;
-      case sdf_type::op_smooth_union:
-        binary([&](float a, float b) { return smooth_min(a, b, node.blend); });
-        break;
-      case sdf_type::op_smooth_intersection:
-        binary([&](float a, float b) { return smooth_max(a, b, node.blend); });
-        break;
-      case sdf_type::op_smooth_subtraction:
-        binary([&](float a, float b) { return smooth_max(a, -b, node.blend); });
-        break;
-      case sdf_type::op_round: stack[top - 1] -= node.radius; break;
-      case sdf_type::op_onion:
-        stack[top - 1] = std::abs(stack[top - 1]) - node.thickness;
-        break;
-      case sdf_type::op_transform:
-        stack[top - 1] *= instr.scale;
-        break;
-        // Refused by make_sdf_tape() until the tape evaluates them.
-        IMPLICIT_SDF_WARP_CASES
-        IMPLICIT_SDF_MATH_CASES assert(false && "unsupported node");
-        break;
-    }
-  }
-  assert(top == 1);
-  return stack[0];
-}
-
-float eval_sdf(const sdf_program& program, vec3f p) {
-  return eval_sdf(make_sdf_tape(program), p);
-}
-
-// Analytic gradient where it is cheap and exact; returns false otherwise.
-static bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g) {
+bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g) {
   switch (node.type) {
     case sdf_type::sphere: g = normalize(p); return length_squared(p) > 0;
     case sdf_type::plane: g = {0, 1, 0}; return true;
@@ -356,19 +159,6 @@ static bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g) {
     case sdf_type::octahedron: IMPLICIT_SDF_OPERATOR_CASES return false;
   }
   return false;
-}
-
-vec3f eval_sdf_gradient(const sdf_tape& tape, vec3f p, float step) {
-  auto g = vec3f{};
-  if (tape.instrs.size() == 1 && tape.instrs[0].space == invalidid &&
-      eval_primitive_gradient(tape.nodes[tape.instrs[0].node], p, g))
-    return g;
-  return normalize(tetrahedral_gradient(
-      [&](vec3f q) { return eval_sdf(tape, q); }, p, step));
-}
-
-vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step) {
-  return eval_sdf_gradient(make_sdf_tape(program), p, step);
 }
 
 // -----------------------------------------------------------------------------
@@ -421,6 +211,56 @@ sdf_param_problem check_primitive(const sdf_node& node) {
   return {};
 }
 
+// Box of the points a domain operator maps into `box` (its operand's box):
+// twist and bend keep the distance to their axis, repeat places copies up
+// to `count` periods away (infinitely many when count < 0), elongate moves
+// points by at most the extent, mirror reflects.
+static bbox3f warp_bounds(const sdf_node& node, const bbox3f& box) {
+  auto extent = [](float lo, float hi) { return std::max(lo * lo, hi * hi); };
+  auto result = box;
+  switch (node.type) {
+    case sdf_type::op_twist: {
+      auto r = std::sqrt(
+          extent(box.min.x, box.max.x) + extent(box.min.z, box.max.z));
+      result.min.x = result.min.z = -r;
+      result.max.x = result.max.z = r;
+      break;
+    }
+    case sdf_type::op_bend: {
+      auto r = std::sqrt(
+          extent(box.min.x, box.max.x) + extent(box.min.y, box.max.y));
+      result.min.x = result.min.y = -r;
+      result.max.x = result.max.y = r;
+      break;
+    }
+    case sdf_type::op_repeat:
+      for (auto a = 0; a < 3; a++) {
+        auto size  = at(node.size, a);
+        auto count = a == 0   ? node.count.x
+                     : a == 1 ? node.count.y
+                              : node.count.z;
+        if (!(size > 0)) continue;
+        auto reach = count < 0 ? flt_inf : size * (float)count;
+        at(result.min, a) -= reach;
+        at(result.max, a) += reach;
+      }
+      break;
+    case sdf_type::op_elongate:
+      result = {box.min - node.size, box.max + node.size};
+      break;
+    case sdf_type::op_mirror:
+      for (auto a = 0; a < 3; a++) {
+        if (!(node.axes & (1 << a))) continue;
+        at(result.min, a) = -at(box.max, a);
+      }
+      break;
+      IMPLICIT_SDF_PRIMITIVE_CASES
+      IMPLICIT_SDF_CSG_CASES
+      IMPLICIT_SDF_MATH_CASES break;
+  }
+  return result;
+}
+
 // One forward pass over the nodes (operands come first), no recursion.
 //
 // A smooth union lies below the minimum of its operands by at most
@@ -471,8 +311,10 @@ bbox3f sdf_bounds(const sdf_program& program) {
         break;
         IMPLICIT_SDF_PRIMITIVE_CASES box = primitive_bounds(node);
         break;
-        // Not yet bounded: infinite.
-        IMPLICIT_SDF_WARP_CASES
+        IMPLICIT_SDF_WARP_CASES box = warp_bounds(node, left());
+        break;
+        // Expressions have no box of their own (the scene gives one, or
+        // the tracer finds it by subdivision): infinite.
         IMPLICIT_SDF_MATH_CASES box = {
             {-flt_inf, -flt_inf, -flt_inf}, {flt_inf, flt_inf, flt_inf}};
         break;
@@ -481,14 +323,31 @@ bbox3f sdf_bounds(const sdf_program& program) {
   return bounds.back();
 }
 
+// Whether a node keeps a distance bound a distance bound: primitives, CSG
+// operators and the 1-Lipschitz domain maps (|q(p) - q(p')| <= |p - p'|).
+static bool is_distance_node(const sdf_node& node) {
+  switch (node.type) {
+    IMPLICIT_SDF_PRIMITIVE_CASES
+    IMPLICIT_SDF_CSG_CASES
+    case sdf_type::op_elongate:
+    case sdf_type::op_mirror: return true;
+    case sdf_type::op_twist:
+    case sdf_type::op_bend:
+    case sdf_type::op_repeat: IMPLICIT_SDF_MATH_CASES return false;
+  }
+  return false;
+}
+
 // One forward pass, as sdf_bounds().
 float sdf_lipschitz(const sdf_program& program) {
   if (program.nodes.empty()) return 1;
   auto lipschitz = std::vector<float>(program.nodes.size(), 1);
   for (auto i = 0; i < (int)program.nodes.size(); i++) {
     auto& node  = program.nodes[i];
-    auto  count = operand_count(node.type);
-    if (count == 0) {
+    auto  count = sdf_operand_count(node.type);
+    if (!is_distance_node(node)) {
+      lipschitz[i] = flt_inf;
+    } else if (count == 0) {
       lipschitz[i] = primitive_lipschitz(node);
     } else if (count == 1) {
       lipschitz[i] = lipschitz[node.left];

@@ -155,67 +155,26 @@ inline int root_node(const sdf_program& program) {
   return (int)program.nodes.size() - 1;
 }
 
-// -----------------------------------------------------------------------------
-// TAPES
-// -----------------------------------------------------------------------------
-
 // Most nodes in one program: node indices are ints, and a loader refuses a
 // larger model (with its file and element) before allocating it.
 inline constexpr int sdf_max_nodes = 1 << 26;
 
-// Value stack of a tape. The tape evaluates the deeper operand of each
-// binary node first (Sethi and Ullman 1970), so a tree of n leaves needs at
-// most floor(log2 n) + 1 entries whatever its shape: 32 cover any program
-// with int indices.
-inline constexpr int sdf_stack_size = 32;
-
-// One step of a tape: a primitive pushes its value at the point mapped into
-// `space`, an operator pops its operands and pushes its value; `swapped`
-// says that the right operand was evaluated first (it lies below the left).
-// Steps name their node in the tape's node pool, so that the many pruned
-// step lists of an sdf_field share one copy of the nodes and maps.
-struct sdf_instr {
-  int   node    = invalidid;  // in sdf_tape::nodes
-  int   space   = invalidid;  // primitives: in sdf_tape::frames
-  float scale   = 1;          // transforms: distance factor
-  bool  swapped = false;
-};
-
-// A program compiled for evaluation without recursion, as libfive flattens
-// its trees: the steps in evaluation order, the program's nodes, and the map
-// from the program's space into each transform's space, composed once
-// (nested transforms cost one map per primitive, not one per level).
-struct sdf_tape {
-  std::vector<sdf_instr> instrs = {};
-  std::vector<sdf_node>  nodes  = {};  // the program's nodes
-  std::vector<frame3f>   frames = {};  // child_from_root of each space
-  std::vector<int>       spaces = {};  // space of each node
-};
-
-// Compile a program. Throws io_error if the nodes do not form a tree whose
-// operands come before their users.
-sdf_tape make_sdf_tape(const sdf_program& program);
-// Steps of a program pruned from the tape's program (its nodes' `origin`
-// index the tape's nodes), evaluated with the tape's nodes and maps.
-std::vector<sdf_instr> make_sdf_instrs(
-    const sdf_program& pruned, const sdf_tape& pool);
+// Number of operands of a node: 0 for primitives and for math clauses
+// without any (const, var-x/y/z), then 1 or 2 (`left`, then `right`).
+int sdf_operand_count(sdf_type type);
 
 // -----------------------------------------------------------------------------
-// EVALUATION
+// EVALUATION (sdf_tape.h compiles and evaluates whole programs)
 // -----------------------------------------------------------------------------
 
 // Distance of one primitive node at a local point.
 float eval_primitive(const sdf_node& node, vec3f p);
-// Distance of a compiled program at a local point. Allocates nothing.
-float eval_sdf(const sdf_tape& tape, vec3f p);
-// Distance of the steps [begin, end) over the nodes and maps of `pool`.
-float eval_sdf(const sdf_tape& pool, const sdf_instr* begin,
-    const sdf_instr* end, vec3f p);
-// Unit gradient of a compiled program; analytic for simple primitives,
-// otherwise tetrahedral central differences with step `step`.
-vec3f eval_sdf_gradient(const sdf_tape& tape, vec3f p, float step);
-// Distance of the whole program at a local point. Compiles a tape on every
-// call: for tests and single queries; loops compile once with make_sdf_tape.
+// Analytic gradient of one primitive where it is cheap and exact (sphere,
+// plane, box, torus; unit length); false for the others.
+bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g);
+// Value of a whole program at a point, compiling its tape (sdf_tape.h) on
+// every call: for tests and single queries; loops compile once
+// (make_sdf_tape) and evaluate the tape, many points at a time.
 float eval_sdf(const sdf_program& program, vec3f p);
 // Unit gradient of the program (compiles a tape, as above).
 vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step);
@@ -232,7 +191,11 @@ sdf_param_problem check_primitive(const sdf_node& node);
 
 // Bounding box of the zero set, in local space. Unbounded axes are infinite.
 bbox3f sdf_bounds(const sdf_program& program);
-// Lipschitz bound of the program (1 for exact distances).
+// Lipschitz bound of the program (1 for exact distances): the largest of
+// its primitives' factors when the program is a distance bound (primitives,
+// CSG operators, transforms, elongate and mirror, which are 1-Lipschitz
+// maps), +inf otherwise (math clauses, twist, bend, repeat: their bound is
+// local, see sdf_field.h).
 float sdf_lipschitz(const sdf_program& program);
 
 // Closed-form intersection of one primitive node, when one exists (sphere,

@@ -25,7 +25,8 @@
 #include <vector>
 
 #include "../scene/scene.h"
-#include "../sdf/sdf_prune.h"
+#include "../sdf/sdf_field.h"
+#include "../sdf/sdf_split.h"
 
 // Embree's handle types (rtcore_device.h, rtcore_geometry.h), declared here so
 // that only the implementation includes Embree.

@@ -1,6 +1,7 @@
-// Tests of tapes, pruning, union parts and fields on random and large models.
+// Tests of tapes, simplification, union parts and fields on random and large
+// models.
 
-#include "sdf_prune.h"
+#include "sdf_field.h"
 
 #include <doctest/doctest.h>
 
@@ -9,6 +10,7 @@
 #include "../math/random.h"
 #include "../util/error.h"
 #include "sdf_models.h"
+#include "sdf_split.h"
 
 namespace implicit {
 namespace {
@@ -213,15 +215,26 @@ TEST_CASE("sdf tape: a 10,000-level chain and a 50,000-operand union") {
     CHECK(parts.size() == 50000);
     CHECK(parts[7].nodes.size() == 2);
   }
-  SUBCASE("a shared operand is refused") {
-    auto program = sdf_program{};
-    auto sphere  = sdf_node{};
-    sphere.type  = sdf_type::sphere;
-    auto leaf    = add_node(program, sphere);
-    auto op      = sdf_node{};
-    op.type      = sdf_type::op_union;
-    op.left      = leaf;
-    op.right     = leaf;
+  SUBCASE("a shared operand is one clause, within one space only") {
+    auto program  = sdf_program{};
+    auto sphere   = sdf_node{};
+    sphere.type   = sdf_type::sphere;
+    sphere.radius = 1;
+    auto leaf     = add_node(program, sphere);
+    auto op       = sdf_node{};
+    op.type       = sdf_type::op_smooth_union;
+    op.blend      = 0.5f;
+    op.left       = leaf;
+    op.right      = leaf;
+    add_node(program, op);
+    auto tape = make_sdf_tape(program);
+    CHECK(tape.ssa.size() == 3);  // input, sphere, blend
+    CHECK(eval_sdf(tape, {2, 0, 0}) == doctest::Approx(1 - 0.125f));
+    // The same sphere also below a transform: two spaces.
+    add_transform(
+        program, leaf, frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 0}});
+    op.left  = root_node(program);
+    op.right = root_node(program) - 1;
     add_node(program, op);
     CHECK_THROWS_AS(make_sdf_tape(program), io_error);
   }
@@ -269,7 +282,7 @@ TEST_CASE("sdf prune: pruned programs equal the whole one in every cell") {
         constant++;
         continue;
       }
-      if (leaf.count < (int)tape.instrs.size()) smaller++;
+      if (leaf.count < (int)tape.clauses.size()) smaller++;
       for (auto k = 0; k < 8; k++) {
         auto p        = cell.min + (cell.max - cell.min) * uniform3(rng, 0, 1);
         auto expected = eval_sdf(tape, p);
@@ -309,10 +322,10 @@ TEST_CASE("sdf prune: hard and smooth unions shrink to the near operands") {
       op.right = leaf;
       root     = add_node(program, op);
     }
-    auto pruned =
-        prune_sdf(program, bbox3f{{9.8f, -0.2f, -0.2f}, {10.2f, 0.2f, 0.2f}});
+    auto pruned = simplify_sdf(make_sdf_tape(program),
+        bbox3f{{9.8f, -0.2f, -0.2f}, {10.2f, 0.2f, 0.2f}});
     auto leaves = 0;
-    for (auto& node : pruned.nodes) leaves += is_primitive(node.type);
+    for (auto& clause : pruned.ssa) leaves += clause.op == sdf_op::shape;
     CHECK(leaves >= 1);
     CHECK(leaves <= 4);
     CHECK(eval_sdf(pruned, {10, 0, 0.1f}) ==
@@ -377,17 +390,17 @@ TEST_CASE("sdf prune: a balanced smooth blob keeps a few operands per cell") {
     op.right = leaves[i];
     root     = add_node(left_fold, op);
   }
-  auto count = [](const sdf_program& program) {
-    auto primitives = 0;
-    for (auto& node : program.nodes) primitives += is_primitive(node.type);
-    return primitives;
+  auto count = [](const sdf_tape& tape) {
+    auto shapes = 0;
+    for (auto& clause : tape.ssa) shapes += clause.op == sdf_op::shape;
+    return shapes;
   };
   // Sphere 555 (lattice cell 5, 5, 5): its centre is minus the translation.
   auto& frame  = balanced.frames[balanced.nodes[leaves[555]].frame];
   auto  centre = -frame.o;
   auto  cell   = bbox3f{centre - 0.02f, centre + 0.02f};  // spacing 0.2
-  auto  pruned = prune_sdf(balanced, cell);
-  auto  folded = prune_sdf(left_fold, cell);
+  auto  pruned = simplify_sdf(make_sdf_tape(balanced), cell);
+  auto  folded = simplify_sdf(make_sdf_tape(left_fold), cell);
   CHECK(count(pruned) <= 40);
   CHECK(count(folded) >= 3 * count(pruned));  // 33 and 136 when written
   auto rng = make_rng(5);

@@ -1,0 +1,427 @@
+// Tests of tapes over boxes and of derivatives: interval soundness and
+// simplification as property tests on random expressions (DAGs of math
+// clauses, primitives, CSG operators, transforms and domain operators),
+// derivatives against central differences, Lipschitz bounds, and the cells
+// of a field of an expression.
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+
+#include "../math/random.h"
+#include "sdf_field.h"
+#include "sdf_simplify.h"
+#include "sdf_tape.h"
+
+namespace implicit {
+namespace {
+
+float uniform(rng_state& rng, float a, float b) {
+  return a + (b - a) * rand1f(rng);
+}
+vec3f uniform3(rng_state& rng, float a, float b) {
+  auto x = uniform(rng, a, b);
+  auto y = uniform(rng, a, b);
+  auto z = uniform(rng, a, b);
+  return {x, y, z};
+}
+int pick(rng_state& rng, int count) {
+  return std::min((int)(rand1f(rng) * (float)count), count - 1);
+}
+
+sdf_node make_math(sdf_type type, int left = invalidid, int right = invalidid) {
+  auto node  = sdf_node{};
+  node.type  = type;
+  node.left  = left;
+  node.right = right;
+  return node;
+}
+
+// Which clauses a random expression may use.
+enum class expression_kind {
+  any,     // every clause, jumps and NaN included
+  smooth,  // differentiable almost everywhere, no NaN, bounded slopes
+};
+
+// A random expression of about `size` nodes: each new node reads one or two
+// of the last nodes made (so subexpressions are shared: a DAG), with now and
+// then a primitive, or the whole so far wrapped in a transform or a domain
+// operator (after which only the wrapped root and fresh coordinates are
+// read, so that shared nodes stay in one space).
+sdf_program random_expression(
+    rng_state& rng, int size, expression_kind kind = expression_kind::any) {
+  auto program = sdf_program{};
+  auto pool    = std::vector<int>{};
+  auto fresh   = [&]() {
+    pool.clear();
+    for (auto type : {sdf_type::math_x, sdf_type::math_y, sdf_type::math_z})
+      pool.push_back(add_node(program, make_math(type)));
+  };
+  fresh();
+  auto operand = [&]() {
+    auto window = std::min((int)pool.size(), 6);
+    return pool[pool.size() - 1 - pick(rng, window)];
+  };
+  auto unary =
+      kind == expression_kind::smooth
+          ? std::vector<sdf_type>{sdf_type::math_neg, sdf_type::math_square,
+                sdf_type::math_sin, sdf_type::math_cos, sdf_type::math_atan,
+                sdf_type::math_abs}
+          : std::vector<sdf_type>{sdf_type::math_neg, sdf_type::math_abs,
+                sdf_type::math_square, sdf_type::math_sqrt, sdf_type::math_exp,
+                sdf_type::math_log, sdf_type::math_sin, sdf_type::math_cos,
+                sdf_type::math_tan, sdf_type::math_asin, sdf_type::math_acos,
+                sdf_type::math_atan, sdf_type::math_floor, sdf_type::math_ceil,
+                sdf_type::math_round, sdf_type::math_not, sdf_type::op_round,
+                sdf_type::op_onion};
+  auto binary =
+      kind == expression_kind::smooth
+          ? std::vector<sdf_type>{sdf_type::math_add, sdf_type::math_sub,
+                sdf_type::math_mul, sdf_type::math_min, sdf_type::math_max,
+                sdf_type::op_union, sdf_type::op_smooth_union,
+                sdf_type::op_subtraction, sdf_type::op_smooth_intersection}
+          : std::vector<sdf_type>{sdf_type::math_add, sdf_type::math_sub,
+                sdf_type::math_mul, sdf_type::math_div, sdf_type::math_min,
+                sdf_type::math_max, sdf_type::math_atan2, sdf_type::math_mod,
+                sdf_type::math_compare, sdf_type::math_and, sdf_type::math_or,
+                sdf_type::op_union, sdf_type::op_smooth_union,
+                sdf_type::op_subtraction, sdf_type::op_smooth_subtraction,
+                sdf_type::op_intersection};
+  for (auto step = 0; step < size; step++) {
+    auto r = rand1f(rng);
+    if (r < 0.06f) {
+      // A domain operator or a transform over everything so far.
+      auto node  = sdf_node{};
+      auto types = std::vector<sdf_type>{sdf_type::op_twist, sdf_type::op_bend,
+          sdf_type::op_repeat, sdf_type::op_elongate, sdf_type::op_mirror,
+          sdf_type::op_transform};
+      node.type  = types[pick(rng, (int)types.size())];
+      node.value = uniform(rng, -2, 2);
+      node.size  = uniform3(rng, 0, 0.8f);
+      node.count = {pick(rng, 4) - 1, pick(rng, 4) - 1, pick(rng, 4) - 1};
+      node.axes  = pick(rng, 8);
+      node.left  = pool.back();
+      auto root  = node.type == sdf_type::op_transform
+                       ? add_transform(program, pool.back(),
+                             frame3f{{0.8f, 0.6f, 0}, {-0.6f, 0.8f, 0},
+                                {0, 0, 1.5f}, uniform3(rng, -0.5f, 0.5f)})
+                       : add_node(program, node);
+      fresh();
+      pool.push_back(root);
+    } else if (r < 0.14f) {
+      auto node   = sdf_node{};
+      node.type   = rand1f(rng) < 0.5f ? sdf_type::sphere : sdf_type::box;
+      node.radius = uniform(rng, 0.1f, 0.6f);
+      node.size   = uniform3(rng, 0.1f, 0.8f);
+      pool.push_back(add_transform(program, add_node(program, node),
+          frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, uniform3(rng, -1, 1)}));
+    } else if (r < 0.22f) {
+      auto node  = make_math(sdf_type::math_const);
+      node.value = uniform(rng, -2, 2);
+      pool.push_back(add_node(program, node));
+    } else if (r < 0.5f) {
+      auto node   = make_math(unary[pick(rng, (int)unary.size())], operand());
+      node.radius = 0.1f;
+      node.thickness = 0.05f;
+      pool.push_back(add_node(program, node));
+    } else {
+      auto a = operand();
+      auto node =
+          make_math(binary[pick(rng, (int)binary.size())], a, operand());
+      node.blend = 0.3f;
+      pool.push_back(add_node(program, node));
+    }
+  }
+  return program;
+}
+
+// A random box: centre in [-2, 2]^3, sides from 1e-3 to 3.
+bbox3f random_box(rng_state& rng) {
+  auto centre = uniform3(rng, -2, 2);
+  auto half   = vec3f{std::exp(uniform(rng, -7, 0.4f)),
+      std::exp(uniform(rng, -7, 0.4f)), std::exp(uniform(rng, -7, 0.4f))};
+  return {centre - half, centre + half};
+}
+vec3f random_point(rng_state& rng, const bbox3f& box) {
+  auto t = uniform3(rng, 0, 1);
+  // Corners and faces too.
+  if (rand1f(rng) < 0.1f) t = {std::round(t.x), std::round(t.y), t.z};
+  // min + (max - min) t may round past max: clamp.
+  return min(max(box.min + (box.max - box.min) * t, box.min), box.max);
+}
+
+// The same float, or both NaN.
+bool same(float a, float b) { return a == b || (a != a && b != b); }
+
+// Central difference of the tape along `axis` (double step sizes).
+float central(const sdf_tape& tape, vec3f p, int axis, float h) {
+  auto q = p, r = p;
+  at(q, axis) += h;
+  at(r, axis) -= h;
+  return (float)(((double)eval_sdf(tape, q) - (double)eval_sdf(tape, r)) /
+                 ((double)at(q, axis) - (double)at(r, axis)));
+}
+
+}  // namespace
+
+TEST_CASE("sdf bounds: intervals hold every value in their box") {
+  auto rng     = make_rng(23);
+  auto checked = 0, nan_values = 0;
+  for (auto trial = 0; trial < 300; trial++) {
+    auto program = random_expression(rng, 8 + trial % 40);
+    auto tape    = make_sdf_tape(program);
+    for (auto b = 0; b < 8; b++) {
+      auto box   = random_box(rng);
+      auto range = eval_sdf_interval(tape, box);
+      auto duals = eval_sdf_dual(tape, box);
+      CHECK(range.lo <= range.hi);
+      for (auto k = 0; k < 16; k++) {
+        auto p     = random_point(rng, box);
+        auto value = eval_sdf(tape, p);
+        auto point = eval_sdf_dual(tape, p);
+        INFO("trial ", trial, " box ", b, " point ", p.x, " ", p.y, " ", p.z);
+        CHECK(contains(range, value));
+        CHECK(contains(duals.v, value));
+        CHECK(same(point.v, value));
+        // Derivatives of smooth points lie in the box's derivatives.
+        if (std::isfinite(value))
+          for (auto i = 0; i < 3; i++) CHECK(contains(duals.d[i], point.d[i]));
+        checked++;
+        nan_values += std::isnan(value);
+      }
+    }
+  }
+  CHECK(checked == 300 * 8 * 16);
+  CHECK(nan_values > 0);  // the NaN rule was exercised
+}
+
+TEST_CASE("sdf bounds: edge cases of intervals") {
+  auto program = sdf_program{};
+  auto x       = add_node(program, make_math(sdf_type::math_x));
+  auto y       = add_node(program, make_math(sdf_type::math_y));
+  auto tape_of = [&](sdf_type type, bool two) {
+    auto p = program;
+    add_node(p, make_math(type, x, two ? y : invalidid));
+    return make_sdf_tape(p);
+  };
+  auto box = [](float x0, float x1, float y0 = 1, float y1 = 2) {
+    return bbox3f{{x0, y0, 0}, {x1, y1, 0}};
+  };
+  // 0 in a divisor, domain edges: entire or the right one-sided range.
+  CHECK(is_entire(eval_sdf_interval(
+      tape_of(sdf_type::math_div, true), bbox3f{{1, -1, 0}, {2, 1, 0}})));
+  CHECK(is_entire(
+      eval_sdf_interval(tape_of(sdf_type::math_sqrt, false), box(-1e-6f, 1))));
+  auto root = eval_sdf_interval(tape_of(sdf_type::math_sqrt, false), box(0, 4));
+  CHECK(root.lo <= 0);
+  CHECK(root.hi >= 2);
+  CHECK(root.hi < 2.001f);
+  CHECK(is_entire(
+      eval_sdf_interval(tape_of(sdf_type::math_log, false), box(-1, 1))));
+  CHECK(eval_sdf_interval(tape_of(sdf_type::math_log, false), box(0, 1)).lo ==
+        -flt_inf);
+  CHECK(is_entire(
+      eval_sdf_interval(tape_of(sdf_type::math_asin, false), box(0, 1.01f))));
+  CHECK(is_entire(
+      eval_sdf_interval(tape_of(sdf_type::math_acos, false), box(-1.01f, 0))));
+  // Huge arguments to sin: still within [-1, 1] and holding the values.
+  auto sine  = tape_of(sdf_type::math_sin, false);
+  auto large = eval_sdf_interval(sine, box(1e7f, 1e7f + 4));
+  CHECK(large.lo >= -1);
+  CHECK(large.hi <= 1);
+  for (auto v = 1e7f; v <= 1e7f + 4; v = std::nextafter(v, flt_inf))
+    CHECK(contains(large, eval_sdf(sine, {v, 1, 0})));
+  // Jumps: floor and mod over a jump have no Lipschitz bound, and a finite
+  // one between jumps.
+  auto floor = tape_of(sdf_type::math_floor, false);
+  CHECK(eval_sdf_lipschitz(floor, box(0.5f, 1.5f)) == flt_inf);
+  CHECK(eval_sdf_lipschitz(floor, box(0.25f, 0.75f)) < 1e-20f);
+  auto mod = tape_of(sdf_type::math_mod, true);
+  CHECK(eval_sdf_lipschitz(mod, bbox3f{{2.5f, 1, 0}, {3.5f, 1, 0}}) == flt_inf);
+  CHECK(eval_sdf_lipschitz(mod, bbox3f{{2.1f, 1, 0}, {2.9f, 1, 0}}) < flt_inf);
+  // sqrt at 0: unbounded slope; repeat across a cell boundary: a jump.
+  CHECK(eval_sdf_lipschitz(tape_of(sdf_type::math_sqrt, false), box(0, 1)) ==
+        flt_inf);
+  auto repeated = sdf_program{};
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.2f;
+  auto repeat   = sdf_node{};
+  repeat.type   = sdf_type::op_repeat;
+  repeat.size   = {1, 0, 0};
+  repeat.left   = add_node(repeated, sphere);
+  add_node(repeated, repeat);
+  auto rtape = make_sdf_tape(repeated);
+  CHECK(eval_sdf_lipschitz(rtape, box(0.4f, 0.6f, 0, 0.1f)) == flt_inf);
+  // Primitives bound each partial by their factor: sqrt(3) for a sphere.
+  CHECK(eval_sdf_lipschitz(rtape, box(0.1f, 0.3f, 0, 0.1f)) <= 1.7321f);
+  // NaN: a box where the value may be NaN gives entire, a point NaN.
+  auto nan_tape = tape_of(sdf_type::math_log, false);
+  CHECK(std::isnan(eval_sdf(nan_tape, {-1, 0, 0})));
+  CHECK(is_entire(eval_sdf_dual(nan_tape, box(-2, -1)).d[0]));
+}
+
+TEST_CASE("sdf bounds: gradients against central differences") {
+  auto rng  = make_rng(31);
+  auto good = 0, total = 0;
+  for (auto trial = 0; trial < 200; trial++) {
+    auto program =
+        random_expression(rng, 6 + trial % 20, expression_kind::smooth);
+    auto tape = make_sdf_tape(program);
+    for (auto k = 0; k < 20; k++) {
+      auto p     = uniform3(rng, -1.5f, 1.5f);
+      auto d     = eval_sdf_dual(tape, p);
+      auto scale = 1 + std::abs(d.v);
+      if (!std::isfinite(d.v) || scale > 1e4f) continue;
+      // Kinks (abs, min, max, hard CSG) make some points disagree: count.
+      auto agree = true;
+      for (auto axis = 0; axis < 3; axis++) {
+        auto c1 = central(tape, p, axis, 1e-3f);
+        auto c2 = central(tape, p, axis, 5e-4f);
+        if (std::abs(c1 - c2) > 1e-2f * (1 + std::abs(c1))) {
+          agree = true;  // a kink within the step: no reference
+          break;
+        }
+        agree = agree && std::abs(d.d[axis] - c1) <= 2e-2f * (1 + std::abs(c1));
+      }
+      good += agree;
+      total++;
+    }
+  }
+  CHECK(total > 3000);
+  CHECK(good >= total * 995 / 1000);
+  // Each math clause alone, on a smooth argument.
+  for (auto type : {sdf_type::math_sqrt, sdf_type::math_exp, sdf_type::math_log,
+           sdf_type::math_sin, sdf_type::math_cos, sdf_type::math_tan,
+           sdf_type::math_asin, sdf_type::math_acos, sdf_type::math_atan,
+           sdf_type::math_square, sdf_type::math_div, sdf_type::math_atan2,
+           sdf_type::math_mod, sdf_type::math_mul}) {
+    auto program = sdf_program{};
+    auto x       = add_node(program, make_math(sdf_type::math_x));
+    auto y       = add_node(program, make_math(sdf_type::math_y));
+    add_node(program, make_math(type, x, y));
+    auto tape = make_sdf_tape(program);
+    for (auto k = 0; k < 50; k++) {
+      // x in (0.1, 0.9), y in (1.1, 1.9): every clause is smooth there.
+      auto p = vec3f{uniform(rng, 0.1f, 0.9f), uniform(rng, 1.1f, 1.9f), 0};
+      auto d = eval_sdf_dual(tape, p);
+      INFO(sdf_type_names[(int)type], " at ", p.x, " ", p.y);
+      for (auto axis = 0; axis < 2; axis++)
+        CHECK(d.d[axis] == doctest::Approx(central(tape, p, axis, 1e-3f))
+                               .epsilon(2e-3)
+                               .scale(1));
+    }
+  }
+}
+
+TEST_CASE("sdf bounds: Lipschitz bounds hold in their boxes") {
+  auto rng = make_rng(41);
+  for (auto trial = 0; trial < 200; trial++) {
+    auto program =
+        random_expression(rng, 6 + trial % 25, expression_kind::smooth);
+    auto tape  = make_sdf_tape(program);
+    auto box   = random_box(rng);
+    auto bound = eval_sdf_lipschitz(tape, box);
+    CHECK(bound >= 0);
+    if (!std::isfinite(bound)) continue;
+    for (auto k = 0; k < 30; k++) {
+      auto p = random_point(rng, box), q = random_point(rng, box);
+      if (distance(p, q) < 1e-6f * (1 + length(p))) continue;
+      auto fp = eval_sdf(tape, p), fq = eval_sdf(tape, q);
+      if (!std::isfinite(fp) || !std::isfinite(fq)) continue;
+      auto slope = std::abs(fp - fq) / distance(p, q);
+      auto noise = 4e-7f * (std::abs(fp) + std::abs(fq)) / distance(p, q);
+      CHECK(slope <= bound * 1.0001f + noise);
+    }
+  }
+}
+
+TEST_CASE("sdf simplify: simplified tapes equal the whole one in their box") {
+  auto rng     = make_rng(53);
+  auto smaller = 0, folded = 0;
+  for (auto trial = 0; trial < 300; trial++) {
+    auto program = random_expression(rng, 10 + trial % 60);
+    auto tape    = make_sdf_tape(program);
+    for (auto b = 0; b < 6; b++) {
+      auto box        = random_box(rng);
+      auto simplified = simplify_sdf(tape, box);
+      smaller += simplified.ssa.size() < tape.ssa.size();
+      folded += simplified.ssa.size() == 1;
+      for (auto k = 0; k < 16; k++) {
+        auto p = random_point(rng, box);
+        INFO("trial ", trial, " box ", b, " point ", p.x, " ", p.y, " ", p.z);
+        CHECK(same(eval_sdf(simplified, p), eval_sdf(tape, p)));
+      }
+    }
+  }
+  CHECK(smaller > 300);
+  CHECK(folded > 10);
+}
+
+TEST_CASE("sdf field: cells of an expression keep their range and slope") {
+  // A gyroid sheet inside a sphere: max(|gyroid| - 0.2, |p| - 1.2).
+  auto program = sdf_program{};
+  auto v = [&](sdf_type type) { return add_node(program, make_math(type)); };
+  auto c = [&](float value) {
+    auto node  = make_math(sdf_type::math_const);
+    node.value = value;
+    return add_node(program, node);
+  };
+  auto op = [&](sdf_type type, int a, int b = invalidid) {
+    return add_node(program, make_math(type, a, b));
+  };
+  auto x    = op(sdf_type::math_mul, v(sdf_type::math_x), c(4));
+  auto y    = op(sdf_type::math_mul, v(sdf_type::math_y), c(4));
+  auto z    = op(sdf_type::math_mul, v(sdf_type::math_z), c(4));
+  auto term = [&](int a, int b) {
+    return op(sdf_type::math_mul, op(sdf_type::math_sin, a),
+        op(sdf_type::math_cos, b));
+  };
+  auto gyroid = op(sdf_type::math_add,
+      op(sdf_type::math_add, term(x, y), term(y, z)), term(z, x));
+  auto sheet  = op(sdf_type::math_sub, op(sdf_type::math_abs, gyroid), c(0.2f));
+  auto r2     = op(sdf_type::math_add,
+          op(sdf_type::math_add, op(sdf_type::math_square, v(sdf_type::math_x)),
+              op(sdf_type::math_square, v(sdf_type::math_y))),
+          op(sdf_type::math_square, v(sdf_type::math_z)));
+  auto ball   = op(sdf_type::math_sub, op(sdf_type::math_sqrt, r2), c(1.2f));
+  op(sdf_type::math_max, sheet, ball);
+  REQUIRE(!std::isfinite(sdf_lipschitz(program)));
+  auto params      = sdf_field_params{};
+  params.max_depth = 4;
+  auto field       = make_sdf_field(
+            program, {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params);
+  REQUIRE(!field.cells.empty());
+  CHECK(!field.distance);
+  auto rng    = make_rng(61);
+  auto leaves = 0, finite = 0, constant = 0;
+  for (auto k = 0; k < 4000; k++) {
+    auto p    = uniform3(rng, -1.3f, 1.3f);
+    auto box  = bbox3f{};
+    auto cell = find_sdf_cell(field, p, box);
+    REQUIRE(cell >= 0);
+    CHECK(inside(box, p));
+    auto& leaf  = field.cells[cell];
+    auto  value = eval_sdf(field.full, p);
+    CHECK(contains(leaf.range, value));
+    if (leaf.count == 0) {
+      constant++;
+      CHECK(!contains(leaf.range, 0));
+      continue;
+    }
+    leaves++;
+    CHECK(same(eval_sdf_cell(field, cell, p), value));
+    CHECK(contains(eval_sdf_cell_interval(field, cell, box), value));
+    if (!std::isfinite(leaf.lipschitz)) continue;
+    finite++;
+    auto q = random_point(rng, box);
+    if (distance(p, q) > 1e-5f)
+      CHECK(std::abs(eval_sdf(field.full, q) - value) <=
+            leaf.lipschitz * distance(p, q) * 1.0001f + 1e-5f);
+  }
+  CHECK(leaves > 100);
+  CHECK(finite > 100);
+  CHECK(constant > 100);
+}
+
+}  // namespace implicit

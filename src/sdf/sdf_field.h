@@ -1,0 +1,106 @@
+// # implicit: fields of simplified tapes
+//
+// An sdf_field holds a program's tape and an octree over its box whose leaves
+// hold the tape simplified to their cell (sdf_simplify.h), built top-down
+// (each cell simplifies its parent's clauses, so the total work is about the
+// clause count times the depth), and evaluates a point with the tape of its
+// leaf. Each leaf also keeps the interval of the value over its cell and a
+// Lipschitz bound there, so that a tracer of functions that are no distance
+// bounds can step by |f| / L within the cell (segment tracing, Galin et al.,
+// "Segment Tracing Using Local Lipschitz Bounds", Eurographics 2020).
+//
+// Because a simplified tape equals the whole one inside its cell, the sphere
+// tracer's steps over a distance program stay those of the whole field: a
+// step may cross into other cells, where the next evaluation uses their
+// tapes, and no bound other than the field's own is needed.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "sdf_simplify.h"
+#include "sdf_tape.h"
+
+namespace implicit {
+
+// How far an sdf_field subdivides.
+struct sdf_field_params {
+  int    leaf_nodes = 24;  // a cell with at most this many clauses is a leaf
+  int    max_depth  = -1;  // octree levels; -1: about cbrt(nodes) cells/axis
+  size_t max_bytes  = 0;   // bytes of all leaf clauses; 0: see make_sdf_field
+};
+
+// One octree cell: eight children from `children`, or a leaf with its
+// simplified clauses, or a leaf with a constant bound: a cell where the
+// field keeps one sign and stays at least half the cell's half diagonal from
+// zero answers with its least distance (`bound`, the lower end of its range
+// outside the surface, the upper end inside). That is no exact value, but it
+// is a distance bound of the same sign, no larger in size than the field's,
+// so sphere tracing stays safe: its steps stay short of the surface, and no
+// hit or normal is ever taken there (every point of the cell is farther from
+// the surface than the hit threshold and the normals' finite-difference
+// steps). For a program that is no distance bound (sdf_field::distance is
+// false) a constant cell only says that the function has no zero there: its
+// range excludes 0 and its `bound` has the function's sign, but it is no
+// distance. Leaves of such programs keep the Lipschitz bound of their own
+// tape over the cell (eval_sdf_lipschitz), +inf where the function may jump.
+struct sdf_cell {
+  int      children  = invalidid;  // index of the first of 8 in `cells`
+  int      begin     = invalidid;  // leaves: first clause in `clauses`
+  int      count     = 0;          // leaves: clauses (0: the constant bound)
+  float    bound     = 0;          // leaves without clauses: that bound
+  interval range     = {};         // leaves: the values over the cell
+  float    lipschitz = flt_inf;    // leaves: bound of |gradient| there
+};
+
+// A program's tape with its simplified versions over an octree of `box`.
+// Points outside the box use the whole tape. The leaves' clauses use the
+// nodes and maps of the whole tape. Plain data: copies and moves are safe.
+struct sdf_field {
+  sdf_tape                full     = {};    // the whole program
+  bbox3f                  box      = {};    // the root cell (empty: no octree)
+  std::vector<sdf_cell>   cells    = {};    // cells[0] is the root
+  std::vector<sdf_clause> clauses  = {};    // leaf clauses, one range per leaf
+  int                     depth    = 0;     // deepest level built
+  bool                    distance = true;  // the program is a distance bound
+};
+
+// Build a field of `program` over `box`; programs of at most
+// params.leaf_nodes nodes, and unbounded boxes, get no octree. Throws
+// io_error as make_sdf_tape().
+sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
+    const sdf_field_params& params = {});
+
+// The leaf cell that holds `p`, or invalidid outside the octree; `box`
+// receives the leaf's box.
+int find_sdf_cell(const sdf_field& field, vec3f p);
+int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box);
+
+// Value at a local point with the tape of cell `cell` (a leaf from
+// find_sdf_cell, or invalidid for the whole tape). Allocates nothing.
+inline float eval_sdf_cell(const sdf_field& field, int cell, vec3f p) {
+  if (cell < 0) return eval_sdf(field.full, p);
+  auto& leaf = field.cells[cell];
+  if (leaf.count == 0) return leaf.bound;
+  auto begin = field.clauses.data() + leaf.begin;
+  return eval_sdf(field.full, begin, begin + leaf.count, p);
+}
+
+// Distance bound at a local point: exact near the surface, see sdf_cell.
+inline float eval_sdf(const sdf_field& field, vec3f p) {
+  return eval_sdf_cell(field, find_sdf_cell(field, p), p);
+}
+
+// Interval of the values over `box` (inside the cell) with the tape of
+// cell `cell`; a constant cell gives its range.
+interval eval_sdf_cell_interval(
+    const sdf_field& field, int cell, const bbox3f& box);
+
+// Unit gradient at a local point; each finite-difference sample uses the
+// tape of its own cell, so it is the gradient of the whole field.
+vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step);
+
+// Bytes of a whole field.
+size_t sdf_field_bytes(const sdf_field& field);
+
+}  // namespace implicit

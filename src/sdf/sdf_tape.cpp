@@ -1,0 +1,450 @@
+// # implicit: SDF tapes (compilation and register allocation)
+
+#include "sdf_tape.h"
+
+#include <algorithm>
+#include <string>
+
+#include "../util/error.h"
+#include "sdf_primitives.h"
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// CLAUSES
+// -----------------------------------------------------------------------------
+
+int sdf_op_inputs(sdf_op op) {
+  switch (op) {
+    case sdf_op::input: return 0;
+    case sdf_op::map:
+    case sdf_op::twist:
+    case sdf_op::bend:
+    case sdf_op::repeat:
+    case sdf_op::elongate:
+    case sdf_op::mirror:
+    case sdf_op::shape:
+    case sdf_op::scale:
+    case sdf_op::csg_round:
+    case sdf_op::csg_onion: return 1;
+    case sdf_op::csg_union:
+    case sdf_op::csg_intersection:
+    case sdf_op::csg_subtraction:
+    case sdf_op::csg_smooth_union:
+    case sdf_op::csg_smooth_intersection:
+    case sdf_op::csg_smooth_subtraction: return 2;
+    // var-x/y/z read a point.
+    case sdf_op::math_x:
+    case sdf_op::math_y:
+    case sdf_op::math_z:
+      return 1;
+      // clang-format off
+#define IMPLICIT_SDF_OP_INPUTS_0(id)
+#define IMPLICIT_SDF_OP_INPUTS_1(id) case sdf_op::id: return 1;
+#define IMPLICIT_SDF_OP_INPUTS_2(id) case sdf_op::id: return 2;
+#define IMPLICIT_SDF_OP_INPUTS(id, name, operands) \
+  IMPLICIT_SDF_OP_INPUTS_##operands(id)
+    case sdf_op::math_const: return 0;
+    IMPLICIT_SDF_MATH(IMPLICIT_SDF_OP_INPUTS)
+      // clang-format on
+#undef IMPLICIT_SDF_OP_INPUTS
+#undef IMPLICIT_SDF_OP_INPUTS_2
+#undef IMPLICIT_SDF_OP_INPUTS_1
+#undef IMPLICIT_SDF_OP_INPUTS_0
+  }
+  return 0;
+}
+
+// -----------------------------------------------------------------------------
+// COMPILATION
+// -----------------------------------------------------------------------------
+
+namespace {
+
+// The space a node is evaluated in: the point of its nearest domain
+// operator above it (or the input), then the transforms below that one,
+// composed into one map.
+struct tape_space {
+  int   warp    = invalidid;  // that domain operator's node; none: the input
+  int   frame   = invalidid;  // composed map, in sdf_tape::frames; or none
+  float stretch = 1;          // bound of the map's stretch
+};
+
+// Program -> SSA clauses.
+struct tape_compiler {
+  const sdf_program&      program;
+  sdf_tape&               tape;
+  std::vector<int>        space       = {};  // per node, in `spaces`
+  std::vector<tape_space> spaces      = {};
+  std::vector<int>        value       = {};  // per node: its clause
+  std::vector<int>        warp_point  = {};  // per domain operator: its point
+  std::vector<int>        space_point = {};  // per space: its point clause
+
+  int emit(sdf_op op, int a = invalidid, int b = invalidid, uint32_t p = 0) {
+    tape.ssa.push_back({op, a, b, p});
+    return (int)tape.ssa.size() - 1;
+  }
+};
+
+std::string node_name(const sdf_program& program, int index) {
+  return "sdf program: node " + std::to_string(index) + " (" +
+         sdf_type_names[(int)program.nodes[index].type] + ")";
+}
+
+// Throw unless every operand comes before its user, and transforms have
+// their frames.
+void check_program(const sdf_program& program) {
+  for (auto i = 0; i < (int)program.nodes.size(); i++) {
+    auto& node  = program.nodes[i];
+    auto  count = sdf_operand_count(node.type);
+    for (auto k = 0; k < count; k++) {
+      auto operand = k == 0 ? node.left : node.right;
+      if (operand < 0 || operand >= i)
+        throw io_error(node_name(program, i) + " has operand " +
+                       std::to_string(operand) + ", expected an earlier node");
+    }
+    if (node.type == sdf_type::op_transform &&
+        (node.frame < 0 || node.frame >= (int)program.frames.size()))
+      throw io_error(node_name(program, i) + " has no frame");
+  }
+}
+
+// Spaces, top-down from the root (users come after their operands, so a
+// reverse pass sees every user of a node before the node): a transform
+// composes its frame after the map of its own space (as the stack tape did,
+// so points map to the same floats), a domain operator starts a space at
+// its output point. A shared node must be used within one space.
+void assign_spaces(tape_compiler& compiler) {
+  auto& program = compiler.program;
+  auto& tape    = compiler.tape;
+  auto  n       = (int)program.nodes.size();
+  compiler.space.assign(n, invalidid);
+  compiler.spaces       = {tape_space{}};
+  compiler.space[n - 1] = 0;
+  for (auto i = n - 1; i >= 0; i--) {
+    auto s = compiler.space[i];
+    if (s < 0) continue;  // not reached from the root
+    auto& node  = program.nodes[i];
+    auto  inner = s;
+    if (node.type == sdf_type::op_transform) {
+      auto  outer = compiler.spaces[s];
+      auto& frame = program.frames[node.frame];
+      auto  scale = program.frame_scales[node.frame];
+      tape.frames.push_back(
+          outer.frame < 0 ? frame : frame * tape.frames[outer.frame]);
+      tape.stretches.push_back(scale > 0 ? outer.stretch / scale : flt_inf);
+      compiler.spaces.push_back(
+          {outer.warp, (int)tape.frames.size() - 1, tape.stretches.back()});
+      inner = (int)compiler.spaces.size() - 1;
+    } else if (is_warp(node.type)) {
+      compiler.spaces.push_back({i, invalidid, 1});
+      inner = (int)compiler.spaces.size() - 1;
+    }
+    auto count = sdf_operand_count(node.type);
+    for (auto k = 0; k < count; k++) {
+      auto  operand  = k == 0 ? node.left : node.right;
+      auto& assigned = compiler.space[operand];
+      if (assigned >= 0 && assigned != inner)
+        throw io_error(node_name(program, operand) +
+                       " is shared by users in different spaces");
+      assigned = inner;
+    }
+  }
+}
+
+// The point clause of a space: its domain operator's point (or the input),
+// mapped by its frame (one map clause per space, made when first needed).
+int point_of_space(tape_compiler& compiler, int s) {
+  auto& space = compiler.spaces[s];
+  auto  base  = space.warp < 0 ? 0 : compiler.warp_point[space.warp];
+  if (space.frame < 0) return base;
+  auto& point = compiler.space_point[s];
+  if (point < 0)
+    point = compiler.emit(sdf_op::map, base, invalidid, space.frame);
+  return point;
+}
+
+// A copy of node `index` in the tape's pool; returns its index there.
+uint32_t pool_node(tape_compiler& compiler, int index, int frame) {
+  auto node   = compiler.program.nodes[index];
+  node.frame  = frame;
+  node.origin = index;
+  compiler.tape.nodes.push_back(node);
+  return (uint32_t)compiler.tape.nodes.size() - 1;
+}
+
+// The clause of a math node whose operands are clauses a and b; math on
+// constants is folded into a constant.
+int emit_math(tape_compiler& compiler, sdf_op op, int a, int b) {
+  auto& ssa      = compiler.tape.ssa;
+  auto  constant = [&](int k) {
+    return k < 0 || ssa[k].op == sdf_op::math_const;
+  };
+  if (constant(a) && constant(b)) {
+    auto x = a < 0 ? 0.0f : sdf_param_float(ssa[a].param);
+    auto y = b < 0 ? 0.0f : sdf_param_float(ssa[b].param);
+    return compiler.emit(sdf_op::math_const, invalidid, invalidid,
+        sdf_float_param(eval_sdf_math(op, x, y)));
+  }
+  return compiler.emit(op, a, b);
+}
+
+// The clause holding the value of node `index`, whose operands have theirs.
+int emit_node(tape_compiler& compiler, int index) {
+  auto& program = compiler.program;
+  auto& node    = program.nodes[index];
+  auto  s       = compiler.space[index];
+  auto  left    = node.left >= 0 ? compiler.value[node.left] : invalidid;
+  auto  right   = node.right >= 0 ? compiler.value[node.right] : invalidid;
+  auto  f       = [](float value) { return sdf_float_param(value); };
+  auto  emit    = [&](sdf_op op, uint32_t param) {
+    return compiler.emit(op, left, right, param);
+  };
+  switch (node.type) {
+    IMPLICIT_SDF_PRIMITIVE_CASES {
+      auto& space = compiler.spaces[s];
+      auto  base  = space.warp < 0 ? 0 : compiler.warp_point[space.warp];
+      return compiler.emit(sdf_op::shape, base, invalidid,
+          pool_node(compiler, index, space.frame));
+    }
+    case sdf_type::op_union: return emit(sdf_op::csg_union, 0);
+    case sdf_type::op_intersection: return emit(sdf_op::csg_intersection, 0);
+    case sdf_type::op_subtraction: return emit(sdf_op::csg_subtraction, 0);
+    case sdf_type::op_smooth_union:
+      return emit(sdf_op::csg_smooth_union, f(node.blend));
+    case sdf_type::op_smooth_intersection:
+      return emit(sdf_op::csg_smooth_intersection, f(node.blend));
+    case sdf_type::op_smooth_subtraction:
+      return emit(sdf_op::csg_smooth_subtraction, f(node.blend));
+    case sdf_type::op_round: return emit(sdf_op::csg_round, f(node.radius));
+    case sdf_type::op_onion: return emit(sdf_op::csg_onion, f(node.thickness));
+    case sdf_type::op_transform: {
+      // Its map is in its operand's space; only a distance factor other
+      // than 1 (a scaling map) is left to apply.
+      auto scale = program.frame_scales[node.frame];
+      return scale == 1 ? left : emit(sdf_op::scale, f(scale));
+    }
+      IMPLICIT_SDF_WARP_CASES return left;
+    case sdf_type::math_const: return emit(sdf_op::math_const, f(node.value));
+    case sdf_type::math_x:
+    case sdf_type::math_y:
+    case sdf_type::math_z: {
+      auto op = node.type == sdf_type::math_x   ? sdf_op::math_x
+                : node.type == sdf_type::math_y ? sdf_op::math_y
+                                                : sdf_op::math_z;
+      return compiler.emit(op, point_of_space(compiler, s));
+    }
+#define IMPLICIT_SDF_EMIT_MATH_0(id)
+#define IMPLICIT_SDF_EMIT_MATH_1(id) \
+  case sdf_type::id:                 \
+    return emit_math(compiler, sdf_op::id, left, invalidid);
+#define IMPLICIT_SDF_EMIT_MATH_2(id) \
+  case sdf_type::id:                 \
+    return emit_math(compiler, sdf_op::id, left, right);
+#define IMPLICIT_SDF_EMIT_MATH(id, name, operands) \
+  IMPLICIT_SDF_EMIT_MATH_##operands(id)
+      IMPLICIT_SDF_MATH(IMPLICIT_SDF_EMIT_MATH)
+#undef IMPLICIT_SDF_EMIT_MATH
+#undef IMPLICIT_SDF_EMIT_MATH_2
+#undef IMPLICIT_SDF_EMIT_MATH_1
+#undef IMPLICIT_SDF_EMIT_MATH_0
+  }
+  return invalidid;
+}
+
+// The point clause of a domain operator.
+sdf_op warp_op(sdf_type type) {
+  switch (type) {
+    case sdf_type::op_twist: return sdf_op::twist;
+    case sdf_type::op_bend: return sdf_op::bend;
+    case sdf_type::op_repeat: return sdf_op::repeat;
+    case sdf_type::op_elongate: return sdf_op::elongate;
+    case sdf_type::op_mirror:
+      return sdf_op::mirror;
+      IMPLICIT_SDF_PRIMITIVE_CASES
+      IMPLICIT_SDF_CSG_CASES
+      IMPLICIT_SDF_MATH_CASES break;
+  }
+  return sdf_op::input;
+}
+
+// Clauses in evaluation order: a post-order walk from the root with an
+// explicit stack, each node once (shared nodes are one clause), the operand
+// needing more registers first (Sethi and Ullman 1970: a tree of n leaves
+// then needs at most log2(n) + 1 registers, whatever its shape). A domain
+// operator's point clause comes before its operand's clauses.
+void emit_clauses(tape_compiler& compiler) {
+  auto& nodes = compiler.program.nodes;
+  auto  n     = (int)nodes.size();
+  auto  need  = std::vector<int>(n, 1);
+  for (auto i = 0; i < n; i++) {
+    auto& node  = nodes[i];
+    auto  count = sdf_operand_count(node.type);
+    if (count == 1) {
+      need[i] = need[node.left];
+    } else if (count == 2) {
+      auto l = need[node.left], r = need[node.right];
+      need[i] = l == r ? l + 1 : std::max(l, r);
+    }
+  }
+  compiler.value.assign(n, invalidid);
+  compiler.warp_point.assign(n, invalidid);
+  compiler.space_point.assign(compiler.spaces.size(), invalidid);
+  compiler.emit(sdf_op::input);
+  auto stack = std::vector<std::pair<int, bool>>{{n - 1, false}};
+  while (!stack.empty()) {
+    auto [index, expanded] = stack.back();
+    stack.pop_back();
+    if (compiler.value[index] >= 0) continue;  // shared, already emitted
+    auto& node  = nodes[index];
+    auto  count = sdf_operand_count(node.type);
+    if (!expanded && count > 0) {
+      if (is_warp(node.type) && compiler.warp_point[index] < 0) {
+        auto in = point_of_space(compiler, compiler.space[index]);
+        compiler.warp_point[index] = compiler.emit(warp_op(node.type), in,
+            invalidid, pool_node(compiler, index, invalidid));
+      }
+      stack.push_back({index, true});
+      auto first = node.left, second = node.right;
+      if (count == 2 && need[node.right] > need[node.left])
+        std::swap(first, second);
+      if (count == 2) stack.push_back({second, false});
+      stack.push_back({first, false});
+      continue;
+    }
+    compiler.value[index] = emit_node(compiler, index);
+  }
+}
+
+// Drop the clauses that nothing reads (the operands of folded constants),
+// keeping the order.
+void remove_dead_clauses(std::vector<sdf_ssa>& ssa) {
+  auto n      = (int)ssa.size();
+  auto live   = std::vector<char>(n, 0);
+  live[n - 1] = 1;
+  for (auto i = n - 1; i >= 0; i--) {
+    if (!live[i]) continue;
+    auto inputs = sdf_op_inputs(ssa[i].op);
+    if (inputs >= 1) live[ssa[i].a] = 1;
+    if (inputs >= 2) live[ssa[i].b] = 1;
+  }
+  auto index = std::vector<int>(n, invalidid);
+  auto count = 0;
+  for (auto i = 0; i < n; i++) {
+    if (!live[i]) continue;
+    auto clause = ssa[i];
+    auto inputs = sdf_op_inputs(clause.op);
+    if (inputs >= 1) clause.a = index[clause.a];
+    if (inputs >= 2) clause.b = index[clause.b];
+    index[i]     = count;
+    ssa[count++] = clause;
+  }
+  ssa.resize(count);
+}
+
+}  // namespace
+
+sdf_tape make_sdf_tape(const sdf_program& program) {
+  auto tape = sdf_tape{};
+  if (program.nodes.empty()) return tape;
+  check_program(program);
+  auto compiler = tape_compiler{program, tape};
+  assign_spaces(compiler);
+  emit_clauses(compiler);
+  // The root's value must be the last clause (a transform or a domain
+  // operator at the root passes its operand's clause through).
+  auto root = compiler.value[program.nodes.size() - 1];
+  if (root != (int)tape.ssa.size() - 1) {
+    auto& last = tape.ssa[root];
+    tape.ssa.push_back(last);
+  }
+  remove_dead_clauses(tape.ssa);
+  if (!allocate_sdf_registers(tape.ssa, tape.clauses))
+    throw io_error("sdf program: needs more than " +
+                   std::to_string(sdf_max_registers) + " values or " +
+                   std::to_string(sdf_max_points) +
+                   " points at once (too many shared subexpressions)");
+  tape.lipschitz = sdf_lipschitz(program);
+  return tape;
+}
+
+// -----------------------------------------------------------------------------
+// REGISTER ALLOCATION
+// -----------------------------------------------------------------------------
+
+namespace {
+
+// Free registers of one file, lowest first.
+struct register_file {
+  std::vector<uint8_t> free = {};
+  explicit register_file(int count) {
+    for (auto r = count - 1; r >= 0; r--) free.push_back((uint8_t)r);
+  }
+  bool take(int& reg) {
+    if (free.empty()) return false;
+    reg = free.back();
+    free.pop_back();
+    return true;
+  }
+  void give(int reg) { free.push_back((uint8_t)reg); }
+};
+
+}  // namespace
+
+// Reverse linear scan (fidget's compiler/alloc.rs): walking from the root
+// back, a value is given a register where it is last read and gives it back
+// where it is written, so a register is reused as soon as its value is dead.
+// A clause may write the register it reads (its inputs are read first).
+bool allocate_sdf_registers(
+    const std::vector<sdf_ssa>& ssa, std::vector<sdf_clause>& clauses) {
+  auto n = (int)ssa.size();
+  if (n == 0) return true;
+  auto scalars = register_file{sdf_max_registers};
+  auto points  = register_file{sdf_max_points};
+  auto reg     = std::vector<int>(n, invalidid);
+  auto start   = clauses.size();
+  auto file    = [&](int index) -> register_file& {
+    return is_point_op(ssa[index].op) ? points : scalars;
+  };
+  if (!file(n - 1).take(reg[n - 1])) return false;
+  for (auto i = n - 1; i >= 0; i--) {
+    auto& c = ssa[i];
+    if (reg[i] < 0) continue;  // dead: nothing reads it
+    file(i).give(reg[i]);
+    auto clause  = sdf_clause{};
+    clause.op    = c.op;
+    clause.out   = (uint8_t)reg[i];
+    clause.param = c.param;
+    auto inputs  = sdf_op_inputs(c.op);
+    for (auto k = 0; k < inputs; k++) {
+      auto in = k == 0 ? c.a : c.b;
+      if (reg[in] < 0 && !file(in).take(reg[in])) {
+        clauses.resize(start);
+        return false;
+      }
+      (k == 0 ? clause.a : clause.b) = (uint8_t)reg[in];
+    }
+    clauses.push_back(clause);
+  }
+  std::reverse(clauses.begin() + start, clauses.end());
+  return true;
+}
+
+bool is_single_shape(const sdf_tape& pool, const sdf_clause* begin,
+    const sdf_clause* end, sdf_node& shape) {
+  if (end - begin != 2 || begin[0].op != sdf_op::input ||
+      begin[1].op != sdf_op::shape)
+    return false;
+  shape = pool.nodes[begin[1].param];
+  return shape.frame < 0;
+}
+
+size_t sdf_tape_bytes(const sdf_tape& tape) {
+  return sizeof(tape) + tape.clauses.size() * sizeof(sdf_clause) +
+         tape.ssa.size() * sizeof(sdf_ssa) +
+         tape.nodes.size() * sizeof(sdf_node) +
+         tape.frames.size() * sizeof(frame3f) +
+         tape.stretches.size() * sizeof(float);
+}
+
+}  // namespace implicit

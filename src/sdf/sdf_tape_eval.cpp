@@ -1,0 +1,92 @@
+// # implicit: SDF tapes (evaluation at points)
+
+#include "sdf_tape_eval.h"
+
+#include <cassert>
+
+namespace implicit {
+
+// -----------------------------------------------------------------------------
+// POINTS
+// -----------------------------------------------------------------------------
+
+float eval_sdf(const sdf_tape& tape, vec3f p) {
+  assert(!tape.clauses.empty());
+  return run_sdf_tape<float>(
+      tape, tape.clauses.data(), tape.clauses.data() + tape.clauses.size(), p);
+}
+
+float eval_sdf(const sdf_tape& pool, const sdf_clause* begin,
+    const sdf_clause* end, vec3f p) {
+  return run_sdf_tape<float>(pool, begin, end, p);
+}
+
+void eval_sdf(const sdf_tape& pool, const sdf_clause* begin,
+    const sdf_clause* end, const vec3f* points, float* values, size_t count) {
+  // Lanes past the last point repeat it (their values are dropped).
+  for (size_t start = 0; start < count; start += sdf_lane_count) {
+    auto lanes = std::min(count - start, (size_t)sdf_lane_count);
+    auto batch = sdf_lane_points{};
+    for (auto i = 0; i < sdf_lane_count; i++) {
+      auto& q    = points[start + std::min((size_t)i, lanes - 1)];
+      batch.x[i] = q.x;
+      batch.y[i] = q.y;
+      batch.z[i] = q.z;
+    }
+    auto result = run_sdf_tape<sdf_lanes>(pool, begin, end, batch);
+    for (size_t i = 0; i < lanes; i++) values[start + i] = result.v[i];
+  }
+}
+
+void eval_sdf(
+    const sdf_tape& tape, const vec3f* points, float* values, size_t count) {
+  assert(!tape.clauses.empty());
+  eval_sdf(tape, tape.clauses.data(), tape.clauses.data() + tape.clauses.size(),
+      points, values, count);
+}
+
+vec3f eval_sdf_gradient(const sdf_tape& tape, vec3f p, float step) {
+  auto g     = vec3f{};
+  auto shape = sdf_node{};
+  auto begin = tape.clauses.data(), end = begin + tape.clauses.size();
+  if (is_single_shape(tape, begin, end, shape) &&
+      eval_primitive_gradient(shape, p, g))
+    return g;
+  return normalize(tetrahedral_gradient(
+      [&](vec3f q) { return eval_sdf(tape, q); }, p, step));
+}
+
+float eval_sdf(const sdf_program& program, vec3f p) {
+  return eval_sdf(make_sdf_tape(program), p);
+}
+
+vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step) {
+  return eval_sdf_gradient(make_sdf_tape(program), p, step);
+}
+
+float eval_sdf_math(sdf_op op, float a, float b) {
+  switch (op) {
+    // clang-format off
+#define IMPLICIT_SDF_FOLD_0(id)
+#define IMPLICIT_SDF_FOLD_1(id) case sdf_op::id: return id(a);
+#define IMPLICIT_SDF_FOLD_2(id) case sdf_op::id: return id(a, b);
+#define IMPLICIT_SDF_FOLD(id, name, operands) IMPLICIT_SDF_FOLD_##operands(id)
+    IMPLICIT_SDF_MATH(IMPLICIT_SDF_FOLD)
+    // clang-format on
+#undef IMPLICIT_SDF_FOLD
+#undef IMPLICIT_SDF_FOLD_2
+#undef IMPLICIT_SDF_FOLD_1
+#undef IMPLICIT_SDF_FOLD_0
+    case sdf_op::math_const:
+      return a;
+      IMPLICIT_SDF_POINT_CASES
+      IMPLICIT_SDF_DISTANCE_CASES
+    case sdf_op::math_x:
+    case sdf_op::math_y:
+    case sdf_op::math_z: break;
+  }
+  assert(false && "eval_sdf_math on a clause that is no math on values");
+  return 0;
+}
+
+}  // namespace implicit

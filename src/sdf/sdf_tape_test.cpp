@@ -1,0 +1,404 @@
+// Tests of tapes: every clause at points against closed forms, batches
+// against single points, DAG sharing, constant folding, domain operators and
+// the register files.
+
+#include "sdf_tape.h"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+
+#include "../math/random.h"
+#include "../util/error.h"
+#include "sdf_primitives.h"
+
+namespace implicit {
+namespace {
+
+sdf_node make_math(sdf_type type, int left = invalidid, int right = invalidid) {
+  auto node  = sdf_node{};
+  node.type  = type;
+  node.left  = left;
+  node.right = right;
+  return node;
+}
+
+int add_const(sdf_program& program, float value) {
+  auto node  = make_math(sdf_type::math_const);
+  node.value = value;
+  return add_node(program, node);
+}
+
+// op(x) or op(x, y) over the point's coordinates.
+sdf_tape math_tape(sdf_type type, int operands) {
+  auto program = sdf_program{};
+  auto x       = add_node(program, make_math(sdf_type::math_x));
+  auto y       = add_node(program, make_math(sdf_type::math_y));
+  add_node(program, make_math(type, x, operands == 2 ? y : invalidid));
+  return make_sdf_tape(program);
+}
+
+float uniform(rng_state& rng, float a, float b) {
+  return a + (b - a) * rand1f(rng);
+}
+
+// The same float, or both NaN.
+bool same(float a, float b) { return a == b || (a != a && b != b); }
+
+}  // namespace
+
+TEST_CASE("sdf tape: every math clause at points") {
+  auto pi = 3.14159265f;
+  struct unary_case {
+    sdf_type type;
+    float    x, expected;
+  };
+  // Closed forms, NaN outside the domains.
+  for (auto [type, x, expected] : std::vector<unary_case>{
+           {sdf_type::math_neg, 2, -2}, {sdf_type::math_abs, -3, 3},
+           {sdf_type::math_square, -3, 9}, {sdf_type::math_sqrt, 16, 4},
+           {sdf_type::math_sqrt, -1, flt_nan}, {sdf_type::math_exp, 0, 1},
+           {sdf_type::math_log, 1, 0}, {sdf_type::math_log, -1, flt_nan},
+           {sdf_type::math_log, 0, -flt_inf}, {sdf_type::math_sin, pi / 2, 1},
+           {sdf_type::math_cos, 0, 1}, {sdf_type::math_tan, 0, 0},
+           {sdf_type::math_asin, 1, pi / 2}, {sdf_type::math_asin, 2, flt_nan},
+           {sdf_type::math_acos, 1, 0}, {sdf_type::math_atan, 1, pi / 4},
+           {sdf_type::math_floor, -1.5f, -2}, {sdf_type::math_ceil, -1.5f, -1},
+           {sdf_type::math_round, 2.5f, 3}, {sdf_type::math_round, -2.5f, -3},
+           {sdf_type::math_not, 0, 1}, {sdf_type::math_not, 3, 0}}) {
+    INFO(sdf_type_names[(int)type], " at ", x);
+    auto value = eval_sdf(math_tape(type, 1), {x, 0, 0});
+    if (std::isnan(expected) || std::isinf(expected)) {
+      CHECK(same(value, expected));
+    } else {
+      CHECK(value == doctest::Approx(expected).epsilon(1e-6));
+    }
+  }
+  struct binary_case {
+    sdf_type type;
+    float    x, y, expected;
+  };
+  for (auto [type, x, y, expected] :
+      std::vector<binary_case>{{sdf_type::math_add, 2, 3, 5},
+          {sdf_type::math_sub, 2, 3, -1}, {sdf_type::math_mul, 2, 3, 6},
+          {sdf_type::math_div, 3, 2, 1.5f}, {sdf_type::math_div, 1, 0, flt_inf},
+          {sdf_type::math_min, 2, 3, 2}, {sdf_type::math_max, 2, 3, 3},
+          {sdf_type::math_min, flt_nan, 3, flt_nan},
+          {sdf_type::math_max, 3, flt_nan, flt_nan},
+          {sdf_type::math_atan2, 1, -1, 3 * pi / 4},
+          {sdf_type::math_mod, -1, 3, 2}, {sdf_type::math_mod, 7, -3, 1},
+          {sdf_type::math_compare, 1, 2, -1}, {sdf_type::math_compare, 2, 2, 0},
+          {sdf_type::math_compare, 3, 2, 1},
+          {sdf_type::math_compare, flt_nan, 2, flt_nan},
+          {sdf_type::math_and, 0, 5, 0}, {sdf_type::math_and, 2, 5, 5},
+          {sdf_type::math_or, 0, 5, 5}, {sdf_type::math_or, 2, 5, 2}}) {
+    INFO(sdf_type_names[(int)type], " at ", x, ", ", y);
+    auto value = eval_sdf(math_tape(type, 2), {x, y, 0});
+    if (std::isnan(expected) || std::isinf(expected)) {
+      CHECK(same(value, expected));
+    } else {
+      CHECK(value == doctest::Approx(expected).epsilon(1e-6));
+    }
+  }
+  // var-z, and a constant.
+  auto program = sdf_program{};
+  auto z       = add_node(program, make_math(sdf_type::math_z));
+  add_node(program, make_math(sdf_type::math_add, z, add_const(program, 0.5f)));
+  CHECK(eval_sdf(program, {1, 2, 3}) == 3.5f);
+}
+
+TEST_CASE("sdf tape: constants fold, shared clauses are computed once") {
+  // (2 + 3) * x: one constant.
+  auto program = sdf_program{};
+  auto sum =
+      add_node(program, make_math(sdf_type::math_add, add_const(program, 2),
+                            add_const(program, 3)));
+  auto x = add_node(program, make_math(sdf_type::math_x));
+  add_node(program, make_math(sdf_type::math_mul, sum, x));
+  auto tape      = make_sdf_tape(program);
+  auto constants = 0;
+  for (auto& clause : tape.ssa) constants += clause.op == sdf_op::math_const;
+  CHECK(constants == 1);
+  CHECK(tape.ssa.size() == 4);  // input, 5, x, mul
+  CHECK(eval_sdf(tape, {2, 0, 0}) == 10);
+  // s = x * x + 1, then s * s + s: a DAG, s computed once.
+  auto dag = sdf_program{};
+  auto dx  = add_node(dag, make_math(sdf_type::math_x));
+  auto xx  = add_node(dag, make_math(sdf_type::math_mul, dx, dx));
+  auto s  = add_node(dag, make_math(sdf_type::math_add, xx, add_const(dag, 1)));
+  auto ss = add_node(dag, make_math(sdf_type::math_mul, s, s));
+  add_node(dag, make_math(sdf_type::math_add, ss, s));
+  auto dag_tape = make_sdf_tape(dag);
+  CHECK(dag_tape.ssa.size() == 7);  // input x xx 1 s ss root
+  CHECK(eval_sdf(dag_tape, {2, 0, 0}) == 30);
+}
+
+TEST_CASE("sdf tape: domain operators as documented") {
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.5f;
+  auto box      = sdf_node{};
+  box.type      = sdf_type::rounded_box;
+  box.size      = {0.3f, 0.6f, 0.2f};
+  box.radius    = 0.05f;
+  auto rng      = make_rng(3);
+  auto warp     = [&](sdf_type type) {
+    auto node  = sdf_node{};
+    node.type  = type;
+    node.value = 1.3f;
+    node.size  = {0.25f, 0, 1.5f};
+    node.count = {2, -1, -1};
+    node.axes  = 5;  // x and z
+    return node;
+  };
+  // The maps of sdf_program.h, written out.
+  auto expected_point = [](const sdf_node& w, vec3f p) {
+    auto q = p;
+    switch (w.type) {
+      case sdf_type::op_twist: {
+        auto c = std::cos(w.value * p.y), s = std::sin(w.value * p.y);
+        q = {c * p.x - s * p.z, p.y, s * p.x + c * p.z};
+        break;
+      }
+      case sdf_type::op_bend: {
+        auto c = std::cos(w.value * p.x), s = std::sin(w.value * p.x);
+        q = {c * p.x - s * p.y, s * p.x + c * p.y, p.z};
+        break;
+      }
+      case sdf_type::op_repeat: {
+        auto n = std::clamp(std::round(p.x / w.size.x), -2.0f, 2.0f);
+        q.x    = p.x - w.size.x * n;
+        q.z    = p.z - w.size.z * std::round(p.z / w.size.z);
+        break;
+      }
+      case sdf_type::op_elongate:
+        q = p - vec3f{std::clamp(p.x, -w.size.x, w.size.x), 0,
+                    std::clamp(p.z, -w.size.z, w.size.z)};
+        break;
+      case sdf_type::op_mirror: q = {std::abs(p.x), p.y, std::abs(p.z)}; break;
+      default: break;
+    }
+    return q;
+  };
+  for (auto type : {sdf_type::op_twist, sdf_type::op_bend, sdf_type::op_repeat,
+           sdf_type::op_elongate, sdf_type::op_mirror}) {
+    auto w       = warp(type);
+    auto program = sdf_program{};
+    // The operand is a box under a rotation, warped, then moved: the map
+    // before the warp and the one after both apply.
+    auto inner = add_transform(program, add_node(program, box),
+        frame3f{{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}, {0.1f, 0, 0}});
+    w.left     = inner;
+    add_transform(program, add_node(program, w),
+        frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -0.2f, 0}});
+    auto tape = make_sdf_tape(program);
+    for (auto k = 0; k < 200; k++) {
+      auto p =
+          vec3f{uniform(rng, -3, 3), uniform(rng, -3, 3), uniform(rng, -3, 3)};
+      auto q = expected_point(w, p + vec3f{0, -0.2f, 0});
+      auto r = frame3f{{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}, {0.1f, 0, 0}};
+      INFO(sdf_type_names[(int)type], " at ", p.x, " ", p.y, " ", p.z);
+      CHECK(eval_sdf(tape, p) ==
+            doctest::Approx(eval_primitive(box, transform_point(r, q)))
+                .epsilon(1e-5));
+    }
+  }
+  // A domain operator below a math clause: displacement of a repeated
+  // sphere, sphere(repeat(p)) + 0.1 sin(10 x), both in the repeated space.
+  auto program = sdf_program{};
+  auto leaf    = add_node(program, sphere);
+  auto x       = add_node(program, make_math(sdf_type::math_x));
+  auto ten_x   = add_node(
+        program, make_math(sdf_type::math_mul, add_const(program, 10), x));
+  auto wave = add_node(
+      program, make_math(sdf_type::math_mul, add_const(program, 0.1f),
+                   add_node(program, make_math(sdf_type::math_sin, ten_x))));
+  auto sum = add_node(program, make_math(sdf_type::math_add, leaf, wave));
+  auto w   = warp(sdf_type::op_repeat);
+  w.left   = sum;
+  add_node(program, w);
+  auto tape = make_sdf_tape(program);
+  for (auto k = 0; k < 100; k++) {
+    auto p =
+        vec3f{uniform(rng, -3, 3), uniform(rng, -3, 3), uniform(rng, -3, 3)};
+    auto q = expected_point(w, p);
+    CHECK(eval_sdf(tape, p) ==
+          doctest::Approx(eval_primitive(sphere, q) + 0.1f * std::sin(10 * q.x))
+              .epsilon(1e-5));
+  }
+}
+
+TEST_CASE("sdf tape: CSG programs give the stack tape's floats") {
+  // A reference evaluation in node order, with each primitive's maps
+  // composed from the root down as the stack tape composed them: the tape
+  // must give the same floats (same formulas, same order).
+  auto rng = make_rng(17);
+  for (auto trial = 0; trial < 20; trial++) {
+    auto program = sdf_program{};
+    auto roots   = std::vector<int>{};
+    for (auto i = 0; i < 30; i++) {
+      auto node    = sdf_node{};
+      node.type    = (i % 3 == 0)   ? sdf_type::sphere
+                     : (i % 3 == 1) ? sdf_type::torus
+                                    : sdf_type::capsule;
+      node.radius  = uniform(rng, 0.1f, 0.3f);
+      node.radius2 = 0.05f;
+      node.height  = 0.2f;
+      auto frame   = frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1},
+          {uniform(rng, -1, 1), uniform(rng, -1, 1), uniform(rng, -1, 1)}};
+      if (i % 4 == 0)
+        frame =
+            frame3f{{0.6f, 0.8f, 0}, {-0.8f, 0.6f, 0}, {0, 0, 1}, {}} * frame;
+      roots.push_back(add_transform(program, add_node(program, node), frame));
+    }
+    auto types =
+        std::vector<sdf_type>{sdf_type::op_union, sdf_type::op_smooth_union,
+            sdf_type::op_subtraction, sdf_type::op_smooth_intersection};
+    auto root = roots[0];
+    for (auto i = 1; i < (int)roots.size(); i++) {
+      auto op  = sdf_node{};
+      op.type  = types[(i + trial) % types.size()];
+      op.blend = 0.2f;
+      op.left  = root;
+      op.right = roots[i];
+      root     = add_node(program, op);
+      if (i % 5 == 0)
+        root = add_transform(program, root,
+            frame3f{{2, 0, 0}, {0, 2, 0}, {0, 0, 2}, {0.1f, 0, 0}});
+      if (i % 7 == 0) {
+        auto round   = sdf_node{};
+        round.type   = i % 2 ? sdf_type::op_round : sdf_type::op_onion;
+        round.radius = round.thickness = 0.02f;
+        round.left                     = root;
+        root                           = add_node(program, round);
+      }
+    }
+    auto n      = (int)program.nodes.size();
+    auto frames = std::vector<frame3f>(n);
+    auto mapped = std::vector<char>(n, 0);
+    for (auto i = n - 1; i >= 0; i--) {
+      auto& node  = program.nodes[i];
+      auto  frame = frames[i];
+      auto  has   = mapped[i];
+      if (node.type == sdf_type::op_transform) {
+        auto& f = program.frames[node.frame];
+        frame   = has ? f * frame : f;
+        has     = 1;
+      }
+      for (auto k : {node.left, node.right}) {
+        if (k < 0) continue;
+        frames[k] = frame;
+        mapped[k] = has;
+      }
+    }
+    auto tape = make_sdf_tape(program);
+    for (auto k = 0; k < 50; k++) {
+      auto p      = vec3f{uniform(rng, -1.5f, 1.5f), uniform(rng, -1.5f, 1.5f),
+          uniform(rng, -1.5f, 1.5f)};
+      auto values = std::vector<float>(n);
+      for (auto i = 0; i < n; i++) {
+        auto& node = program.nodes[i];
+        auto  l    = node.left >= 0 ? values[node.left] : 0.0f;
+        auto  r    = node.right >= 0 ? values[node.right] : 0.0f;
+        switch (node.type) {
+          case sdf_type::op_union: values[i] = std::min(l, r); break;
+          case sdf_type::op_subtraction: values[i] = std::max(l, -r); break;
+          case sdf_type::op_smooth_union:
+            values[i] = smooth_min(l, r, node.blend);
+            break;
+          case sdf_type::op_smooth_intersection:
+            values[i] = smooth_max(l, r, node.blend);
+            break;
+          case sdf_type::op_round: values[i] = l - node.radius; break;
+          case sdf_type::op_onion:
+            values[i] = std::abs(l) - node.thickness;
+            break;
+          case sdf_type::op_transform: {
+            auto s    = program.frame_scales[node.frame];
+            values[i] = s == 1 ? l : l * s;
+            break;
+          }
+          default: {
+            auto q    = mapped[i] ? transform_point(frames[i], p) : p;
+            values[i] = eval_primitive(node, q);
+          }
+        }
+      }
+      CHECK(eval_sdf(tape, p) == values[n - 1]);
+    }
+  }
+}
+
+TEST_CASE("sdf tape: batches equal single points") {
+  auto rng = make_rng(5);
+  // A math expression with domain operators, and a CSG model.
+  auto program  = sdf_program{};
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.4f;
+  auto leaf     = add_node(program, sphere);
+  auto x        = add_node(program, make_math(sdf_type::math_x));
+  auto y        = add_node(program, make_math(sdf_type::math_y));
+  auto g        = add_node(
+             program, make_math(sdf_type::math_mul,
+                          add_node(program, make_math(sdf_type::math_sin, x)),
+                          add_node(program, make_math(sdf_type::math_cos, y))));
+  auto m   = add_node(program, make_math(sdf_type::math_max, leaf, g));
+  auto tw  = sdf_node{};
+  tw.type  = sdf_type::op_twist;
+  tw.value = 2;
+  tw.left  = m;
+  add_node(program, tw);
+  auto tape = make_sdf_tape(program);
+  for (auto count : {1, 31, 32, 33, 1000}) {
+    auto points = std::vector<vec3f>(count);
+    for (auto& p : points)
+      p = {uniform(rng, -2, 2), uniform(rng, -2, 2), uniform(rng, -2, 2)};
+    auto values = std::vector<float>(count);
+    eval_sdf(tape, points.data(), values.data(), points.size());
+    for (auto i = 0; i < count; i++)
+      CHECK(same(values[i], eval_sdf(tape, points[i])));
+  }
+}
+
+TEST_CASE("sdf tape: register files") {
+  // 65,536 spheres in a balanced union: a few registers.
+  auto program = sdf_program{};
+  auto sphere  = sdf_node{};
+  sphere.type  = sdf_type::sphere;
+  auto roots   = std::vector<int>{};
+  for (auto i = 0; i < 65536; i++) roots.push_back(add_node(program, sphere));
+  auto op = sdf_node{};
+  op.type = sdf_type::op_smooth_union;
+  fold_sdf_operands(program, roots, op);
+  auto tape = make_sdf_tape(program);
+  auto most = 0;
+  for (auto& clause : tape.clauses) most = std::max(most, (int)clause.out + 1);
+  CHECK(most <= 18);
+  // n values all read twice, far apart (two sums in opposite orders): all
+  // live at once. 200 fit in 256 registers, 300 are refused.
+  for (auto n : {200, 300}) {
+    auto dag    = sdf_program{};
+    auto x      = add_node(dag, make_math(sdf_type::math_x));
+    auto values = std::vector<int>{};
+    for (auto i = 0; i < n; i++)
+      values.push_back(add_node(
+          dag, make_math(sdf_type::math_add, x, add_const(dag, (float)i))));
+    auto first = values[0], second = values[n - 1];
+    for (auto i = 1; i < n; i++) {
+      first  = add_node(dag, make_math(sdf_type::math_add, first, values[i]));
+      second = add_node(
+          dag, make_math(sdf_type::math_max, second, values[n - 1 - i]));
+    }
+    add_node(dag, make_math(sdf_type::math_sub, first, second));
+    if (n == 200) {
+      auto dag_tape = make_sdf_tape(dag);
+      // sum(x + i) - max(x + i) at x = 1: 200 + 19900 - 200.
+      CHECK(eval_sdf(dag_tape, {1, 0, 0}) == 19900);
+    } else {
+      CHECK_THROWS_AS(make_sdf_tape(dag), io_error);
+    }
+  }
+}
+
+}  // namespace implicit
