@@ -190,7 +190,11 @@ TEST_CASE("sdf programs: Lipschitz bound holds on random pairs") {
   ellipsoid.size = {1, 0.25f, 0.5f};
   programs.push_back(make_primitive_program(ellipsoid));
   for (auto& program : programs) {
+    // An infinite bound would pass the slope check below: it must be the
+    // finite factor of a distance program.
     auto lipschitz = sdf_lipschitz(program);
+    REQUIRE(std::isfinite(lipschitz));
+    REQUIRE(lipschitz >= 1);
     for (auto k = 0; k < 5000; k++) {
       auto p = vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} * 6 - 3;
       auto q = p + (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 0.2f;
