@@ -1,0 +1,713 @@
+// # implicit: denoising
+//
+// One engine visits, for every pixel p and every neighbour q in its window,
+// the weight w(p, q) of a method (NL-means times feature weights, or a t-test
+// times feature weights); the filters accumulate what they need from the
+// weights (a weighted mean, or the moments of a first-order regression).
+//
+// The engine runs over blocks of rows in parallel, offset by offset, and
+// computes every weight from fixed coordinates only: each pixel sums its
+// neighbours in the same order whatever the blocks, so the output is the same
+// at any thread count.
+
+#include "denoise.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+
+namespace implicit {
+
+namespace {
+
+// -----------------------------------------------------------------------------
+// INPUTS
+// -----------------------------------------------------------------------------
+
+// Features per pixel: albedo (3), normal (3), log depth (1).
+constexpr int max_features = 7;
+// Rows per parallel task.
+constexpr int block_rows = 8;
+// A depth this many times the farthest hit stands for "no hit".
+constexpr float no_hit_depth_factor = 16;
+
+// A float per pixel with `pad` replicated pixels around the image: windows
+// and patches near the border read clamped coordinates without tests, and
+// loops over a row run over contiguous floats (the compiler vectorises them).
+struct padded_plane {
+  int                pad    = 0;
+  int                stride = 0;
+  std::vector<float> data   = {};
+  // Pointer to pixel (0, y); y and x may be up to pad outside the image.
+  const float* row(int y) const {
+    return data.data() + (size_t)(y + pad) * stride + pad;
+  }
+};
+
+// A padded plane of value(i), i the index of a pixel of the image.
+template <typename Value>
+padded_plane make_plane(int width, int height, int pad, Value&& value) {
+  auto plane = padded_plane{pad, width + 2 * pad, {}};
+  auto rows  = height + 2 * pad;
+  plane.data = std::vector<float>((size_t)rows * plane.stride);
+  for (auto y = 0; y < rows; y++)
+    for (auto x = 0; x < plane.stride; x++) {
+      auto i = (size_t)std::clamp(y - pad, 0, height - 1) * width +
+               std::clamp(x - pad, 0, width - 1);
+      plane.data[(size_t)y * plane.stride + x] = value(i);
+    }
+  return plane;
+}
+
+// Three planes, one per channel.
+using padded_color = std::array<padded_plane, 3>;
+
+// The buffers after checks: missing values zeroed and flagged, variance
+// estimated when absent and smoothed, features in units of their sigma;
+// then the same as padded planes for the filters.
+struct guide_data {
+  int                  width    = 0;
+  int                  height   = 0;
+  std::vector<vec3f>   color    = {};
+  std::vector<vec3f>   half_a   = {};  // both halves empty or both filled
+  std::vector<vec3f>   half_b   = {};
+  std::vector<vec3f>   variance = {};  // of the full mean
+  std::vector<uint8_t> valid    = {};  // colour, halves, variance finite
+  // Colour distances below this count as zero (scale of the image).
+  float epsilon = 0;
+  // Features: nfeatures per pixel; when has_depth the last one is log depth,
+  // compared to the plane through the pixel (depth_gradient per pixel step).
+  int                nfeatures      = 0;
+  bool               has_depth      = false;
+  std::vector<float> features       = {};
+  std::vector<vec2f> depth_gradient = {};
+  // Planes, padded by the window and patch radii.
+  padded_color              color_planes    = {};
+  padded_color              half_a_planes   = {};
+  padded_color              half_b_planes   = {};
+  padded_color              variance_planes = {};
+  padded_plane              valid_plane     = {};
+  std::vector<padded_plane> feature_planes  = {};
+  padded_plane              gradient_x      = {};
+  padded_plane              gradient_y      = {};
+};
+
+// A buffer that is empty or has one entry per pixel.
+template <typename T>
+void check_size(const std::vector<T>& buffer, size_t count, const char* name) {
+  if (!buffer.empty() && buffer.size() != count)
+    throw std::invalid_argument(std::string("denoise_image: buffer ") + name +
+                                " has " + std::to_string(buffer.size()) +
+                                " pixels, expected " + std::to_string(count));
+}
+
+// Size checks of every buffer.
+void check_buffers(const denoise_buffers& buffers) {
+  if (buffers.width < 0 || buffers.height < 0)
+    throw std::invalid_argument("denoise_image: negative image size");
+  auto count = (size_t)buffers.width * (size_t)buffers.height;
+  check_size(buffers.color, count, "color");
+  check_size(buffers.color_a, count, "color_a");
+  check_size(buffers.color_b, count, "color_b");
+  check_size(buffers.variance, count, "variance");
+  check_size(buffers.albedo, count, "albedo");
+  check_size(buffers.normal, count, "normal");
+  check_size(buffers.depth, count, "depth");
+  check_size(buffers.samples, count, "samples");
+  if (buffers.color_a.empty() != buffers.color_b.empty())
+    throw std::invalid_argument(
+        "denoise_image: color_a and color_b must both be given or both empty");
+  if (count != 0 && buffers.color.empty() && buffers.color_a.empty())
+    throw std::invalid_argument("denoise_image: no color buffer");
+}
+
+// Colour, halves and validity; invalid pixels hold zeros.
+void make_colors(const denoise_buffers& buffers, guide_data& guide) {
+  auto count   = (size_t)guide.width * guide.height;
+  auto halves  = !buffers.color_a.empty();
+  guide.color  = std::vector<vec3f>(count);
+  guide.valid  = std::vector<uint8_t>(count, 1);
+  guide.half_a = halves ? buffers.color_a : std::vector<vec3f>{};
+  guide.half_b = halves ? buffers.color_b : std::vector<vec3f>{};
+  for (size_t i = 0; i < count; i++) {
+    auto color = buffers.color.empty()
+                     ? (buffers.color_a[i] + buffers.color_b[i]) * 0.5f
+                     : buffers.color[i];
+    auto valid = isfinite(color) &&
+                 (!halves || (isfinite(buffers.color_a[i]) &&
+                                 isfinite(buffers.color_b[i]))) &&
+                 (buffers.variance.empty() || isfinite(buffers.variance[i]));
+    guide.valid[i] = valid ? 1 : 0;
+    guide.color[i] = valid ? color : vec3f{0, 0, 0};
+    if (halves && !valid) guide.half_a[i] = guide.half_b[i] = {0, 0, 0};
+  }
+}
+
+// Variance of the mean per pixel: the buffer, else the halves' squared
+// difference / 4, else one global estimate from neighbouring differences;
+// then a 3x3 mean over valid pixels (a single pixel's estimate is noisy).
+void make_variance(const denoise_buffers& buffers, guide_data& guide) {
+  auto width = guide.width, height = guide.height;
+  auto raw = std::vector<vec3f>(guide.color.size());
+  if (!buffers.variance.empty()) {
+    for (size_t i = 0; i < raw.size(); i++)
+      raw[i] = guide.valid[i] ? max(buffers.variance[i], 0.0f) : vec3f{};
+  } else if (!guide.half_a.empty()) {
+    for (size_t i = 0; i < raw.size(); i++) {
+      auto d = guide.half_a[i] - guide.half_b[i];
+      raw[i] = d * d * 0.25f;
+    }
+  } else {
+    // The median of (c_x - c_x+1)^2 / 2 over horizontal pairs, divided by
+    // the median of chi-square with one degree of freedom (0.4549).
+    std::vector<float> diffs[3];
+    for (auto y = 0; y < height; y++)
+      for (auto x = 0; x + 1 < width; x++) {
+        auto i = (size_t)y * width + x;
+        if (!guide.valid[i] || !guide.valid[i + 1]) continue;
+        auto d = guide.color[i] - guide.color[i + 1];
+        for (auto c = 0; c < 3; c++) diffs[c].push_back(at(d, c) * at(d, c));
+      }
+    auto global = vec3f{0, 0, 0};
+    for (auto c = 0; c < 3; c++) {
+      if (diffs[c].empty()) continue;
+      auto mid = diffs[c].begin() + diffs[c].size() / 2;
+      std::nth_element(diffs[c].begin(), mid, diffs[c].end());
+      at(global, c) = *mid / 2 / 0.4549f;
+    }
+    for (auto& v : raw) v = global;
+  }
+  guide.variance = std::vector<vec3f>(raw.size());
+  for (auto y = 0; y < height; y++)
+    for (auto x = 0; x < width; x++) {
+      auto sum = vec3f{0, 0, 0};
+      auto n   = 0;
+      for (auto j = std::max(y - 1, 0); j <= std::min(y + 1, height - 1); j++)
+        for (auto i = std::max(x - 1, 0); i <= std::min(x + 1, width - 1);
+             i++) {
+          if (!guide.valid[(size_t)j * width + i]) continue;
+          sum += raw[(size_t)j * width + i];
+          n++;
+        }
+      guide.variance[(size_t)y * width + x] = n ? sum / (float)n : vec3f{};
+    }
+}
+
+// Log depth per pixel, in units of depth_sigma; a missing hit is far.
+std::vector<float> make_log_depth(
+    const denoise_buffers& buffers, const denoise_params& params) {
+  auto farthest = 0.0f;
+  for (auto z : buffers.depth)
+    if (std::isfinite(z) && z > 0) farthest = std::max(farthest, z);
+  if (farthest == 0) return {};
+  auto log_depth = std::vector<float>(buffers.depth.size());
+  for (size_t i = 0; i < log_depth.size(); i++) {
+    auto z   = buffers.depth[i];
+    auto hit = std::isfinite(z) && z > 0;
+    log_depth[i] =
+        std::log(hit ? z : farthest * no_hit_depth_factor) / params.depth_sigma;
+  }
+  return log_depth;
+}
+
+// The smaller in magnitude of two one-sided differences (0 when their signs
+// differ): the slope of the surface on the smooth side of an edge.
+float min_mod(float a, float b) {
+  if (a * b <= 0) return 0;
+  return std::abs(a) < std::abs(b) ? a : b;
+}
+
+// Features in units of their sigma, and the depth gradient.
+void make_features(const denoise_buffers& buffers, const denoise_params& params,
+    guide_data& guide) {
+  auto count     = (size_t)guide.width * guide.height;
+  auto log_depth = buffers.depth.empty() ? std::vector<float>{}
+                                         : make_log_depth(buffers, params);
+  auto nf        = (buffers.albedo.empty() ? 0 : 3) +
+            (buffers.normal.empty() ? 0 : 3) + (log_depth.empty() ? 0 : 1);
+  guide.nfeatures = nf;
+  guide.has_depth = !log_depth.empty();
+  guide.features  = std::vector<float>(count * nf);
+  for (size_t i = 0; i < count; i++) {
+    auto f = &guide.features[i * nf];
+    auto k = 0;
+    if (!buffers.albedo.empty()) {
+      auto a = isfinite(buffers.albedo[i]) ? buffers.albedo[i] : vec3f{};
+      for (auto c = 0; c < 3; c++) f[k++] = at(a, c) / params.albedo_sigma;
+    }
+    if (!buffers.normal.empty()) {
+      auto n = isfinite(buffers.normal[i]) ? buffers.normal[i] : vec3f{};
+      for (auto c = 0; c < 3; c++) f[k++] = at(n, c) / params.normal_sigma;
+    }
+    if (guide.has_depth) f[k++] = log_depth[i];
+  }
+  if (!guide.has_depth) return;
+  auto width = guide.width, height = guide.height;
+  guide.depth_gradient = std::vector<vec2f>(count);
+  for (auto y = 0; y < height; y++)
+    for (auto x = 0; x < width; x++) {
+      auto z  = [&](int i, int j) { return log_depth[(size_t)j * width + i]; };
+      auto gx = x > 0 && x + 1 < width
+                    ? min_mod(z(x, y) - z(x - 1, y), z(x + 1, y) - z(x, y))
+                    : 0.0f;
+      auto gy = y > 0 && y + 1 < height
+                    ? min_mod(z(x, y) - z(x, y - 1), z(x, y + 1) - z(x, y))
+                    : 0.0f;
+      guide.depth_gradient[(size_t)y * width + x] = {gx, gy};
+    }
+}
+
+// The guide of a denoising run, with planes padded for windows of `radius`
+// and patches of `patch`.
+guide_data make_guide(const denoise_buffers& buffers,
+    const denoise_params& params, int radius, int patch) {
+  auto guide   = guide_data{};
+  guide.width  = buffers.width;
+  guide.height = buffers.height;
+  make_colors(buffers, guide);
+  make_variance(buffers, guide);
+  make_features(buffers, params, guide);
+  // Distances of colours below 1e-4 of the mean colour count as noise free.
+  auto sum = 0.0, n = 0.0;
+  for (size_t i = 0; i < guide.color.size(); i++)
+    if (guide.valid[i]) sum += mean(abs(guide.color[i])), n += 1;
+  auto scale    = n > 0 ? (float)(sum / n) : 0.0f;
+  guide.epsilon = std::max(1e-8f * scale * scale, 1e-20f);
+  // Planes.
+  auto width = guide.width, height = guide.height, pad = radius + patch;
+  auto color_planes = [&](const std::vector<vec3f>& values) {
+    auto planes = padded_color{};
+    if (values.empty()) return planes;
+    for (auto c = 0; c < 3; c++)
+      planes[c] = make_plane(
+          width, height, pad, [&](size_t i) { return at(values[i], c); });
+    return planes;
+  };
+  guide.color_planes    = color_planes(guide.color);
+  guide.half_a_planes   = color_planes(guide.half_a);
+  guide.half_b_planes   = color_planes(guide.half_b);
+  guide.variance_planes = color_planes(guide.variance);
+  guide.valid_plane     = make_plane(
+          width, height, pad, [&](size_t i) { return (float)guide.valid[i]; });
+  auto nf = (size_t)guide.nfeatures;
+  for (size_t k = 0; k < nf; k++)
+    guide.feature_planes.push_back(make_plane(width, height, pad,
+        [&](size_t i) { return guide.features[i * nf + k]; }));
+  if (guide.has_depth) {
+    guide.gradient_x = make_plane(width, height, pad,
+        [&](size_t i) { return guide.depth_gradient[i].x; });
+    guide.gradient_y = make_plane(width, height, pad,
+        [&](size_t i) { return guide.depth_gradient[i].y; });
+  }
+  return guide;
+}
+
+// -----------------------------------------------------------------------------
+// WEIGHTS
+// -----------------------------------------------------------------------------
+
+// Distances above this weigh exp(-max_distance) (1.7e-38, a normal float).
+constexpr float max_distance = 87;
+
+// exp(-d) for d in [0, max_distance] to about 1e-7 relative: a branch-free
+// polynomial the compiler vectorises, where std::exp is a call per element.
+// 2^t = 2^i 2^(f + 1/2) / sqrt(2), i = trunc(t), f in (-1, 0].
+inline float exp_negative(float d) {
+  auto t = d * -1.44269504f;
+  auto i = (int32_t)t;
+  auto g = (t - (float)i + 0.5f) * 0.693147181f;  // |g| <= ln(2) / 2
+  auto poly =
+      1 +
+      g * (1 + g * (0.5f +
+                       g * (1.0f / 6 +
+                               g * (1.0f / 24 +
+                                       g * (1.0f / 120 + g * (1.0f / 720))))));
+  auto bits = (int32_t)((i + 127) * (1 << 23));
+  return poly * __builtin_bit_cast(float, bits) * 0.707106781f;
+}
+
+// The colour the weights compare, with the variance of its values relative
+// to the variance of the full mean (2 for a half buffer).
+struct weight_guide {
+  const padded_color* color          = nullptr;
+  float               variance_scale = 1;
+};
+
+// NL-means distance of one channel: the squared difference less its
+// expected variance, in units of k^2 (var_a + var_b) (Rousselle et al.
+// 2012; the min makes a pixel whose own variance is high less picky).
+inline float nlm_distance(float diff, float a, float b, float eps, float k2) {
+  return (diff * diff - (a + std::min(a, b))) / (eps + k2 * (a + b));
+}
+
+// Welch's t statistic squared less the threshold squared: positive when the
+// test tells the means of one channel apart.
+inline float welch_excess(float diff, float a, float b, float eps, float t2) {
+  return diff * diff - t2 * (a + b) - eps;
+}
+
+// Colour distances of pixels (x, ya) and (x + dx, yb) for x in [-patch,
+// width + patch): the NL-means distance averaged over channels, or for the
+// t-test 0 when Welch's test keeps b and 1e30 when it rejects b. Pairs with
+// a missing pixel: 0. One statement per channel: the loops vectorise.
+void color_distances(const guide_data& guide, const weight_guide& source,
+    const denoise_params& params, int ya, int yb, int dx, int patch,
+    float* distances) {
+  auto& color = *source.color;
+  auto& var   = guide.variance_planes;
+  auto  s     = source.variance_scale;
+  auto  eps   = guide.epsilon;
+  auto  a0 = color[0].row(ya), a1 = color[1].row(ya), a2 = color[2].row(ya);
+  auto  b0 = color[0].row(yb) + dx, b1 = color[1].row(yb) + dx,
+       b2  = color[2].row(yb) + dx;
+  auto va0 = var[0].row(ya), va1 = var[1].row(ya), va2 = var[2].row(ya);
+  auto vb0 = var[0].row(yb) + dx, vb1 = var[1].row(yb) + dx,
+       vb2 = var[2].row(yb) + dx;
+  auto ma = guide.valid_plane.row(ya), mb = guide.valid_plane.row(yb) + dx;
+  auto end = guide.width + patch;
+  auto out = distances + patch;
+  if (params.method == denoise_method::ttest) {
+    auto t2 = params.ttest_threshold * params.ttest_threshold * s;
+    for (auto x = -patch; x < end; x++) {
+      auto e0     = welch_excess(a0[x] - b0[x], va0[x], vb0[x], eps, t2);
+      auto e1     = welch_excess(a1[x] - b1[x], va1[x], vb1[x], eps, t2);
+      auto e2     = welch_excess(a2[x] - b2[x], va2[x], vb2[x], eps, t2);
+      auto excess = std::max(e0, std::max(e1, e2));
+      out[x]      = (excess > 0 ? 1e30f : 0.0f) * ma[x] * mb[x];
+    }
+    return;
+  }
+  auto k2 = params.strength * params.strength;
+  for (auto x = -patch; x < end; x++) {
+    auto d0 = nlm_distance(a0[x] - b0[x], va0[x] * s, vb0[x] * s, eps, k2);
+    auto d1 = nlm_distance(a1[x] - b1[x], va1[x] * s, vb1[x] * s, eps, k2);
+    auto d2 = nlm_distance(a2[x] - b2[x], va2[x] * s, vb2[x] * s, eps, k2);
+    out[x]  = (d0 + d1 + d2) * (1.0f / 3) * ma[x] * mb[x];
+  }
+}
+
+// Add the squared feature distances of pixels (x, y) and (x + dx, y + dy)
+// to distance[x] for x in [x0, x1); log depth relative to the plane through
+// (x, y) (its gradient), so that slanted surfaces are one surface.
+void add_feature_distances(const guide_data& guide, int y, int dx, int dy,
+    int x0, int x1, float* distance) {
+  auto plain = guide.has_depth ? guide.nfeatures - 1 : guide.nfeatures;
+  for (auto k = 0; k < plain; k++) {
+    auto fp = guide.feature_planes[k].row(y);
+    auto fq = guide.feature_planes[k].row(y + dy) + dx;
+    for (auto x = x0; x < x1; x++)
+      distance[x] += (fq[x] - fp[x]) * (fq[x] - fp[x]);
+  }
+  if (!guide.has_depth) return;
+  auto zp = guide.feature_planes[plain].row(y);
+  auto zq = guide.feature_planes[plain].row(y + dy) + dx;
+  auto gx = guide.gradient_x.row(y), gy = guide.gradient_y.row(y);
+  for (auto x = x0; x < x1; x++) {
+    auto d = zq[x] - zp[x] - (gx[x] * dx + gy[x] * dy);
+    distance[x] += d * d;
+  }
+}
+
+// Calls visit(y, dx, dy, weights) for every row y of [y0, y1) and every
+// offset (dx, dy) of the window, in a fixed order; weights[x] is the weight
+// of pixel (x + dx, y + dy) for pixel (x, y), 0 outside the image and for
+// missing pixels. Patch distances are box sums of pixel distances, each a
+// direct sum (no running sums, whose rounding would depend on where a block
+// starts).
+template <typename Visit>
+void visit_weights(const guide_data& guide, const weight_guide& source,
+    const denoise_params& params, int y0, int y1, Visit&& visit) {
+  auto width = guide.width, height = guide.height, radius = params.radius;
+  auto patch    = params.method == denoise_method::ttest
+                      ? 0
+                      : std::max(params.patch_radius, 0);
+  auto rows     = y1 - y0 + 2 * patch;
+  auto area     = 1.0f / (float)((2 * patch + 1) * (2 * patch + 1));
+  auto pixel    = std::vector<float>((size_t)width + 2 * patch);
+  auto row_sums = std::vector<float>((size_t)rows * width);
+  auto weights  = std::vector<float>(width);
+  for (auto dy = -radius; dy <= radius; dy++) {
+    for (auto dx = -radius; dx <= radius; dx++) {
+      for (auto row = 0; row < rows; row++) {
+        auto ya = y0 - patch + row;
+        color_distances(
+            guide, source, params, ya, ya + dy, dx, patch, pixel.data());
+        auto sums = &row_sums[(size_t)row * width];
+        for (auto x = 0; x < width; x++) sums[x] = pixel[x];
+        for (auto k = 1; k <= 2 * patch; k++)
+          for (auto x = 0; x < width; x++) sums[x] += pixel[x + k];
+      }
+      auto x0 = std::max(0, -dx), x1 = std::min(width, width - dx);
+      for (auto y = y0; y < y1; y++) {
+        if (y + dy < 0 || y + dy >= height) continue;
+        std::fill(weights.begin(), weights.end(), 0.0f);
+        auto sums = &row_sums[(size_t)(y - y0) * width];
+        for (auto x = x0; x < x1; x++) weights[x] = sums[x];
+        for (auto k = 1; k <= 2 * patch; k++)
+          for (auto x = x0; x < x1; x++) weights[x] += sums[k * width + x];
+        for (auto x = x0; x < x1; x++)
+          weights[x] = std::max(weights[x] * area, 0.0f);
+        add_feature_distances(guide, y, dx, dy, x0, x1, weights.data());
+        // Clamped in a loop of its own: a min beside the exponential stops
+        // GCC from vectorising.
+        for (auto x = x0; x < x1; x++)
+          weights[x] = std::min(weights[x], max_distance);
+        auto valid = guide.valid_plane.row(y + dy) + dx;
+        for (auto x = x0; x < x1; x++)
+          weights[x] = exp_negative(weights[x]) * valid[x];
+        visit(y, dx, dy, weights.data());
+      }
+    }
+  }
+}
+
+// -----------------------------------------------------------------------------
+// FILTERS
+// -----------------------------------------------------------------------------
+
+// Weighted mean of the neighbours of `values` with the weights of `source`:
+// the pixel's own value plus the mean of the differences, so a constant
+// image stays exactly constant.
+std::vector<vec3f> filter_mean(const guide_data& guide,
+    const std::vector<vec3f>& values, const padded_color& planes,
+    const weight_guide& source, const denoise_params& params) {
+  auto width  = guide.width;
+  auto output = std::vector<vec3f>(values.size());
+  auto blocks = (guide.height + block_rows - 1) / block_rows;
+  tbb::parallel_for(0, blocks, [&](int block) {
+    auto y0    = block * block_rows;
+    auto y1    = std::min(y0 + block_rows, guide.height);
+    auto count = (size_t)(y1 - y0) * width;
+    // Weight sum, then the weighted differences per channel.
+    auto sums = std::vector<float>(count * 4, 0.0f);
+    visit_weights(guide, source, params, y0, y1,
+        [&](int y, int dx, int dy, const float* w) {
+          auto sw = &sums[(size_t)(y - y0) * width];
+          for (auto x = 0; x < width; x++) sw[x] += w[x];
+          for (auto c = 0; c < 3; c++) {
+            auto s  = sw + (c + 1) * count;
+            auto yp = planes[c].row(y), yq = planes[c].row(y + dy) + dx;
+            for (auto x = 0; x < width; x++) s[x] += w[x] * (yq[x] - yp[x]);
+          }
+        });
+    for (size_t local = 0; local < count; local++) {
+      auto p    = (size_t)y0 * width + local;
+      auto w    = sums[local];
+      auto s    = vec3f{sums[count + local], sums[2 * count + local],
+          sums[3 * count + local]};
+      output[p] = w > 0 ? values[p] + s / w : values[p];
+    }
+  });
+  return output;
+}
+
+// Solve the symmetric positive definite system a x = b (n unknowns, m
+// right-hand sides, row-major) by Cholesky in place; false when a is not
+// positive definite.
+bool solve_cholesky(double* a, double* b, int n, int m) {
+  for (auto j = 0; j < n; j++) {
+    auto d = a[j * n + j];
+    for (auto k = 0; k < j; k++) d -= a[j * n + k] * a[j * n + k];
+    if (!(d > 0)) return false;
+    a[j * n + j] = std::sqrt(d);
+    for (auto i = j + 1; i < n; i++) {
+      auto s = a[i * n + j];
+      for (auto k = 0; k < j; k++) s -= a[i * n + k] * a[j * n + k];
+      a[i * n + j] = s / a[j * n + j];
+    }
+  }
+  for (auto c = 0; c < m; c++) {
+    for (auto i = 0; i < n; i++) {
+      auto s = b[i * m + c];
+      for (auto k = 0; k < i; k++) s -= a[i * n + k] * b[k * m + c];
+      b[i * m + c] = s / a[i * n + i];
+    }
+    for (auto i = n - 1; i >= 0; i--) {
+      auto s = b[i * m + c];
+      for (auto k = i + 1; k < n; k++) s -= a[k * n + i] * b[k * m + c];
+      b[i * m + c] = s / a[i * n + i];
+    }
+  }
+  return true;
+}
+
+// Moments of a weighted first-order regression per pixel, each a plane of
+// the block: w, w x (nf), w y (3), w x x^T (upper triangle), w x y^T
+// (nf x 3); x are the neighbour's features less the pixel's, y its value
+// less the pixel's.
+struct regression_layout {
+  int features = 0, mean_x = 1, mean_y = 0, xx = 0, xy = 0, moments = 0;
+};
+
+// The layout for nf features.
+regression_layout make_regression_layout(int nf) {
+  auto layout     = regression_layout{};
+  layout.features = nf;
+  layout.mean_y   = 1 + nf;
+  layout.xx       = layout.mean_y + 3;
+  layout.xy       = layout.xx + nf * (nf + 1) / 2;
+  layout.moments  = layout.xy + nf * 3;
+  return layout;
+}
+
+// The regression's value at the pixel (features x = 0), relative to the
+// pixel's own value: the weighted mean of y less the slopes times the mean
+// of x; slopes by ridge regression on centred moments. m[j * stride] is
+// moment j.
+vec3f solve_regression(const regression_layout& layout, const float* m,
+    size_t stride, float ridge) {
+  auto nf = layout.features;
+  auto sw = (double)m[0];
+  if (!(sw > 0)) return {0, 0, 0};
+  double mean_x[max_features], mean_y[3];
+  for (auto k = 0; k < nf; k++)
+    mean_x[k] = m[(layout.mean_x + k) * stride] / sw;
+  for (auto c = 0; c < 3; c++) mean_y[c] = m[(layout.mean_y + c) * stride] / sw;
+  double a[max_features * max_features], b[max_features * 3];
+  auto   j = layout.xx;
+  for (auto k = 0; k < nf; k++)
+    for (auto l = k; l < nf; l++) {
+      auto v =
+          m[j++ * stride] / sw - mean_x[k] * mean_x[l] + (k == l ? ridge : 0);
+      a[k * nf + l] = a[l * nf + k] = v;
+    }
+  for (auto k = 0; k < nf; k++)
+    for (auto c = 0; c < 3; c++)
+      b[k * 3 + c] = m[j++ * stride] / sw - mean_x[k] * mean_y[c];
+  auto value = vec3f{(float)mean_y[0], (float)mean_y[1], (float)mean_y[2]};
+  if (nf == 0 || !solve_cholesky(a, b, nf, 3)) return value;
+  for (auto c = 0; c < 3; c++) {
+    auto v = mean_y[c];
+    for (auto k = 0; k < nf; k++) v -= b[k * 3 + c] * mean_x[k];
+    at(value, c) = (float)v;
+  }
+  return value;
+}
+
+// Add one row of neighbours at offset (dx, dy), weights w, to the moments.
+void add_regression_row(const guide_data& guide,
+    const regression_layout& layout, const padded_color& planes, int y, int dx,
+    int dy, const float* w, float* moments, size_t stride, float* scratch) {
+  auto width = guide.width, nf = layout.features;
+  // x (nf rows of scratch) then y (3 rows).
+  for (auto k = 0; k < nf; k++) {
+    auto fp = guide.feature_planes[k].row(y);
+    auto fq = guide.feature_planes[k].row(y + dy) + dx;
+    for (auto x = 0; x < width; x++) scratch[k * width + x] = fq[x] - fp[x];
+  }
+  for (auto c = 0; c < 3; c++) {
+    auto yp = planes[c].row(y), yq = planes[c].row(y + dy) + dx;
+    auto out = &scratch[(nf + c) * width];
+    for (auto x = 0; x < width; x++) out[x] = yq[x] - yp[x];
+  }
+  auto add = [&](int j, const float* u) {
+    auto m = moments + j * stride;
+    for (auto x = 0; x < width; x++) m[x] += w[x] * u[x];
+  };
+  auto add2 = [&](int j, const float* u, const float* v) {
+    auto m = moments + j * stride;
+    for (auto x = 0; x < width; x++) m[x] += w[x] * u[x] * v[x];
+  };
+  for (auto x = 0; x < width; x++) moments[x] += w[x];
+  for (auto k = 0; k < nf; k++) add(layout.mean_x + k, &scratch[k * width]);
+  for (auto c = 0; c < 3; c++)
+    add(layout.mean_y + c, &scratch[(nf + c) * width]);
+  auto j = layout.xx;
+  for (auto k = 0; k < nf; k++)
+    for (auto l = k; l < nf; l++)
+      add2(j++, &scratch[k * width], &scratch[l * width]);
+  for (auto k = 0; k < nf; k++)
+    for (auto c = 0; c < 3; c++)
+      add2(j++, &scratch[k * width], &scratch[(nf + c) * width]);
+}
+
+// First-order regression of `values` on the features in each pixel's
+// window, weighted by `source` (NFOR, Bitterli et al. 2016): features that
+// vary with the image (shading normals, albedo, depth) explain the variation
+// instead of blurring it.
+std::vector<vec3f> filter_regression(const guide_data& guide,
+    const std::vector<vec3f>& values, const padded_color& planes,
+    const weight_guide& source, const denoise_params& params) {
+  auto width  = guide.width;
+  auto layout = make_regression_layout(guide.nfeatures);
+  auto output = std::vector<vec3f>(values.size());
+  auto blocks = (guide.height + block_rows - 1) / block_rows;
+  tbb::parallel_for(0, blocks, [&](int block) {
+    auto y0      = block * block_rows;
+    auto y1      = std::min(y0 + block_rows, guide.height);
+    auto count   = (size_t)(y1 - y0) * width;
+    auto moments = std::vector<float>(count * layout.moments, 0.0f);
+    auto scratch = std::vector<float>((size_t)(layout.features + 3) * width);
+    visit_weights(guide, source, params, y0, y1,
+        [&](int y, int dx, int dy, const float* w) {
+          add_regression_row(guide, layout, planes, y, dx, dy, w,
+              &moments[(size_t)(y - y0) * width], count, scratch.data());
+        });
+    for (size_t local = 0; local < count; local++) {
+      auto p    = (size_t)y0 * width + local;
+      output[p] = values[p] + solve_regression(
+                                  layout, &moments[local], count, params.ridge);
+    }
+  });
+  return output;
+}
+
+// The filter of a method.
+std::vector<vec3f> filter_values(const guide_data& guide,
+    const std::vector<vec3f>& values, const padded_color& planes,
+    const weight_guide& source, const denoise_params& params) {
+  switch (params.method) {
+    case denoise_method::nfor:
+      return filter_regression(guide, values, planes, source, params);
+    case denoise_method::nlm:
+    case denoise_method::ttest:
+      return filter_mean(guide, values, planes, source, params);
+  }
+  return {};
+}
+
+}  // namespace
+
+// -----------------------------------------------------------------------------
+// DENOISING
+// -----------------------------------------------------------------------------
+
+// Run the method: cross filtering of the halves when there are halves (each
+// half filtered with the weights of the other, so that no weight is
+// correlated with the noise it averages), else the colour with its own.
+std::vector<vec3f> denoise_image(
+    const denoise_buffers& buffers, const denoise_params& params) {
+  check_buffers(buffers);
+  if (buffers.width == 0 || buffers.height == 0) return {};
+  if (params.radius < 0 || params.patch_radius < 0)
+    throw std::invalid_argument("denoise_image: negative radius");
+  auto guide = make_guide(
+      buffers, params, params.radius, std::max(params.patch_radius, 0));
+  auto cross = !guide.half_a.empty() && params.method != denoise_method::ttest;
+  if (!cross)
+    return filter_values(guide, guide.color, guide.color_planes,
+        {&guide.color_planes, 1}, params);
+  auto a = filter_values(guide, guide.half_a, guide.half_a_planes,
+      {&guide.half_b_planes, 2}, params);
+  auto b = filter_values(guide, guide.half_b, guide.half_b_planes,
+      {&guide.half_a_planes, 2}, params);
+  for (size_t i = 0; i < a.size(); i++) a[i] = (a[i] + b[i]) * 0.5f;
+  return a;
+}
+
+// Parse a method name.
+denoise_method parse_denoise_method(const std::string& name) {
+  for (size_t i = 0; i < denoise_method_names.size(); i++)
+    if (denoise_method_names[i] == name) return (denoise_method)i;
+  auto names = std::string{};
+  for (auto& known : denoise_method_names)
+    names += (names.empty() ? "" : ", ") + known;
+  throw std::invalid_argument(
+      "unknown denoise method \"" + name + "\" (expected " + names + ")");
+}
+
+}  // namespace implicit

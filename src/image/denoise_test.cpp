@@ -1,0 +1,278 @@
+// Tests of the denoiser on synthetic renders with a known truth: a
+// piecewise-constant albedo times smooth shading plus Gaussian noise of known
+// variance, the two half buffers drawn independently.
+
+#include "denoise.h"
+
+#include <doctest/doctest.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "../math/random.h"
+
+namespace implicit {
+
+// A synthetic render and its truth.
+struct synthetic_render {
+  denoise_buffers    buffers = {};
+  std::vector<vec3f> truth   = {};
+};
+
+// A standard normal number (Box-Muller), two draws in named locals.
+static float rand_normal(rng_state& rng) {
+  auto u1 = rand1f(rng);
+  auto u2 = rand1f(rng);
+  return std::sqrt(-2 * std::log(1 - u1)) * std::cos(2 * pif * u2);
+}
+
+// Albedo of 12-pixel tiles from a palette, shading by a normal that tilts
+// slowly across the image, depth of a tilted plane; every sample adds
+// Gaussian noise of standard deviation sigma, `samples` samples per pixel.
+static synthetic_render make_synthetic(
+    int width, int height, float sigma, int samples, uint64_t seed) {
+  const vec3f palette[] = {{0.8f, 0.2f, 0.1f}, {0.2f, 0.6f, 0.3f},
+      {0.9f, 0.9f, 0.9f}, {0.1f, 0.2f, 0.7f}, {0.5f, 0.4f, 0.1f}};
+  auto        render    = synthetic_render{};
+  auto&       buffers   = render.buffers;
+  auto        count     = (size_t)width * height;
+  buffers.width = width, buffers.height = height;
+  for (auto* buffer : {&buffers.color, &buffers.color_a, &buffers.color_b,
+           &buffers.variance, &buffers.albedo, &buffers.normal, &render.truth})
+    buffer->resize(count);
+  buffers.depth.resize(count);
+  buffers.samples.assign(count, samples);
+  auto rng      = make_rng(seed);
+  auto half_var = sigma * sigma / (samples / 2);
+  for (auto y = 0; y < height; y++)
+    for (auto x = 0; x < width; x++) {
+      auto i      = (size_t)y * width + x;
+      auto albedo = palette[((x / 12) * 3 + (y / 12) * 7) % 5];
+      auto normal = normalize(
+          vec3f{std::sin(x * 0.05f) * 0.6f, std::cos(y * 0.04f) * 0.5f, 1});
+      auto shade =
+          0.2f + std::max(dot(normal, normalize({0.3f, 0.4f, 1})), 0.0f);
+      auto truth        = albedo * shade;
+      render.truth[i]   = truth;
+      buffers.albedo[i] = albedo;
+      buffers.normal[i] = normal;
+      buffers.depth[i]  = 5 + 0.01f * y;
+      for (auto* half : {&buffers.color_a, &buffers.color_b}) {
+        auto noise =
+            vec3f{rand_normal(rng), rand_normal(rng), rand_normal(rng)};
+        (*half)[i] = truth + noise * std::sqrt(half_var);
+      }
+      buffers.color[i]    = (buffers.color_a[i] + buffers.color_b[i]) * 0.5f;
+      buffers.variance[i] = vec3f{1, 1, 1} * (sigma * sigma / samples);
+    }
+  return render;
+}
+
+// Relative MSE: mean over pixels and channels of (x - t)^2 / (t^2 + 0.01).
+static double rel_mse(
+    const std::vector<vec3f>& image, const std::vector<vec3f>& truth) {
+  auto sum = 0.0;
+  for (size_t i = 0; i < image.size(); i++)
+    for (auto c = 0; c < 3; c++) {
+      double d = at(image[i], c) - at(truth[i], c), t = at(truth[i], c);
+      sum += d * d / (t * t + 0.01);
+    }
+  return sum / (3.0 * image.size());
+}
+
+// Mean of all channels of all pixels.
+static double image_mean(const std::vector<vec3f>& image) {
+  auto sum = 0.0;
+  for (auto& p : image) sum += (double)p.x + p.y + p.z;
+  return sum / (3.0 * image.size());
+}
+
+// The methods under test with their names.
+static const denoise_method all_methods[] = {
+    denoise_method::nfor, denoise_method::nlm, denoise_method::ttest};
+
+TEST_CASE("denoise lowers the relative MSE of a noisy render") {
+  auto render = make_synthetic(96, 72, 0.5f, 16, 7);
+  auto noisy  = rel_mse(render.buffers.color, render.truth);
+  for (auto method : all_methods) {
+    auto params   = denoise_params{};
+    params.method = method;
+    auto denoised =
+        rel_mse(denoise_image(render.buffers, params), render.truth);
+    INFO(denoise_method_names[(int)method], " noisy ", noisy, " denoised ",
+        denoised);
+    CHECK(denoised * 4 < noisy);
+  }
+}
+
+TEST_CASE("denoise keeps a sharp albedo edge sharp") {
+  // Left half albedo 0.2, right half 0.8, smooth shading: the step between
+  // the two columns at the edge keeps 90% of its true height on average.
+  auto  render  = make_synthetic(64, 48, 0.5f, 16, 11);
+  auto& buffers = render.buffers;
+  auto  width = buffers.width, edge = width / 2;
+  auto  rng = make_rng(3);
+  for (auto y = 0; y < buffers.height; y++)
+    for (auto x = 0; x < width; x++) {
+      auto i            = (size_t)y * width + x;
+      auto albedo       = vec3f{1, 1, 1} * (x < edge ? 0.2f : 0.8f);
+      auto shade        = 0.6f + 0.3f * std::sin(y * 0.1f);
+      render.truth[i]   = albedo * shade;
+      buffers.albedo[i] = albedo;
+      buffers.normal[i] = {0, 0, 1};
+      for (auto* half : {&buffers.color_a, &buffers.color_b}) {
+        auto noise =
+            vec3f{rand_normal(rng), rand_normal(rng), rand_normal(rng)};
+        (*half)[i] = render.truth[i] + noise * std::sqrt(0.25f / 8);
+      }
+      buffers.color[i] = (buffers.color_a[i] + buffers.color_b[i]) * 0.5f;
+    }
+  for (auto method : all_methods) {
+    auto params   = denoise_params{};
+    params.method = method;
+    auto denoised = denoise_image(buffers, params);
+    auto step = 0.0, truth = 0.0, noisy = 0.0;
+    for (auto y = 0; y < buffers.height; y++) {
+      auto left = (size_t)y * width + edge - 1, right = left + 1;
+      step += mean(denoised[right] - denoised[left]);
+      truth += mean(render.truth[right] - render.truth[left]);
+      noisy += mean(buffers.color[right] - buffers.color[left]);
+    }
+    INFO(denoise_method_names[(int)method], " step ", step, " truth ", truth,
+        " noisy ", noisy);
+    CHECK(step > 0.9 * truth);
+    CHECK(step < 1.1 * truth);
+  }
+}
+
+TEST_CASE("denoise keeps the mean within the noise") {
+  // The noise of the image mean: sqrt(sum of variances) / pixels.
+  auto render = make_synthetic(96, 72, 0.5f, 16, 5);
+  auto pixels = (double)render.truth.size() * 3;
+  auto noise  = std::sqrt(pixels * 0.25 / 16) / pixels;
+  auto truth  = image_mean(render.truth);
+  auto noisy  = image_mean(render.buffers.color);
+  CHECK(std::abs(noisy - truth) < 4 * noise);
+  for (auto method : all_methods) {
+    auto params   = denoise_params{};
+    params.method = method;
+    auto denoised = image_mean(denoise_image(render.buffers, params));
+    INFO(denoise_method_names[(int)method], " truth ", truth, " noisy ", noisy,
+        " denoised ", denoised, " noise ", noise);
+    CHECK(std::abs(denoised - truth) < 4 * noise);
+  }
+}
+
+TEST_CASE("denoise keeps a constant image constant") {
+  auto buffers  = denoise_buffers{};
+  buffers.width = 20, buffers.height = 13;
+  auto count = (size_t)buffers.width * buffers.height;
+  auto value = vec3f{0.3f, 1.7f, 12.5f};
+  buffers.color.assign(count, value);
+  buffers.color_a.assign(count, value);
+  buffers.color_b.assign(count, value);
+  buffers.variance.assign(count, {0.01f, 0.02f, 0.0f});
+  // Features that vary: the regression must still give the constant.
+  for (size_t i = 0; i < count; i++) {
+    buffers.albedo.push_back(vec3f{1, 1, 1} * (float)(i % 7) / 7);
+    buffers.normal.push_back(normalize(vec3f{(float)(i % 5), 1, 2}));
+    buffers.depth.push_back(1 + (float)(i % 11));
+  }
+  for (auto method : all_methods) {
+    auto params   = denoise_params{};
+    params.method = method;
+    auto denoised = denoise_image(buffers, params);
+    REQUIRE(denoised.size() == count);
+    auto exact = true;
+    for (auto& p : denoised) exact = exact && p == value;
+    INFO(denoise_method_names[(int)method]);
+    CHECK(exact);
+  }
+}
+
+TEST_CASE("denoise does not spread NaN or inf") {
+  auto  render              = make_synthetic(40, 32, 0.5f, 16, 9);
+  auto  clean               = denoise_image(render.buffers);
+  auto& buffers             = render.buffers;
+  auto  nan                 = std::numeric_limits<float>::quiet_NaN();
+  auto  inf                 = std::numeric_limits<float>::infinity();
+  auto  bad                 = (size_t)10 * 40 + 12;
+  buffers.color[bad]        = {nan, 0, 0};
+  buffers.color_a[bad]      = {inf, 1, 1};
+  buffers.variance[bad + 1] = {0, inf, 0};
+  buffers.albedo[bad + 2]   = {nan, nan, nan};
+  buffers.depth[bad + 3]    = nan;
+  for (auto method : all_methods) {
+    auto params   = denoise_params{};
+    params.method = method;
+    auto denoised = denoise_image(buffers, params);
+    auto finite   = true;
+    for (auto& p : denoised) finite = finite && isfinite(p);
+    INFO(denoise_method_names[(int)method]);
+    CHECK(finite);
+    // The missing pixel is filled from its neighbours.
+    CHECK(distance(denoised[bad], render.truth[bad]) < 0.2f);
+  }
+}
+
+TEST_CASE("denoise works without optional buffers") {
+  auto render     = make_synthetic(64, 48, 0.5f, 16, 13);
+  auto noisy      = rel_mse(render.buffers.color, render.truth);
+  auto full       = render.buffers;
+  auto color_only = denoise_buffers{full.width, full.height, full.color};
+  auto halves_only =
+      denoise_buffers{full.width, full.height, {}, full.color_a, full.color_b};
+  auto no_features   = full;
+  no_features.albedo = {}, no_features.normal = {}, no_features.depth = {};
+  for (auto method : all_methods) {
+    auto params   = denoise_params{};
+    params.method = method;
+    for (auto& buffers : {color_only, halves_only, no_features}) {
+      auto denoised = rel_mse(denoise_image(buffers, params), render.truth);
+      INFO(denoise_method_names[(int)method], " noisy ", noisy, " denoised ",
+          denoised);
+      CHECK(denoised * 1.5 < noisy);
+    }
+  }
+}
+
+TEST_CASE("denoise gives the same bytes at 1 and 2 threads") {
+  auto render = make_synthetic(50, 37, 0.5f, 16, 17);
+  for (auto method : all_methods) {
+    auto params   = denoise_params{};
+    params.method = method;
+    auto one = std::vector<vec3f>{}, two = std::vector<vec3f>{};
+    {
+      auto control =
+          tbb::global_control(tbb::global_control::max_allowed_parallelism, 1);
+      one = denoise_image(render.buffers, params);
+    }
+    {
+      auto control =
+          tbb::global_control(tbb::global_control::max_allowed_parallelism, 2);
+      two = denoise_image(render.buffers, params);
+    }
+    REQUIRE(one.size() == two.size());
+    INFO(denoise_method_names[(int)method]);
+    CHECK(std::memcmp(one.data(), two.data(), one.size() * sizeof(vec3f)) == 0);
+  }
+}
+
+TEST_CASE("denoise rejects buffers of the wrong size") {
+  auto buffers  = denoise_buffers{};
+  buffers.width = 4, buffers.height = 3;
+  CHECK_THROWS_AS(denoise_image(buffers), std::invalid_argument);
+  buffers.color.resize(12);
+  CHECK(denoise_image(buffers).size() == 12);
+  buffers.albedo.resize(11);
+  CHECK_THROWS_AS(denoise_image(buffers), std::invalid_argument);
+  buffers.albedo = {};
+  buffers.color_a.resize(12);
+  CHECK_THROWS_AS(denoise_image(buffers), std::invalid_argument);
+  CHECK(parse_denoise_method("nlm") == denoise_method::nlm);
+  CHECK_THROWS_AS(parse_denoise_method("oidn"), std::invalid_argument);
+}
+
+}  // namespace implicit
