@@ -479,7 +479,8 @@ bool is_identity(const frame3f& f) {
 // files read relative to `filename`).
 py_sdf compile_sdf(const std::string& text, const std::string& filename) {
   auto warnings = std::vector<std::string>{};
-  auto scene    = parse_scene(text, filename, warnings, true);
+  // Evaluated at points only: an unbounded surface is fine.
+  auto scene = parse_scene(text, filename, warnings, true, false);
   if (scene.sdfunctions.size() != 1)
     throw_io_error(filename, "expected exactly one sdfunction, found " +
                                  std::to_string(scene.sdfunctions.size()));

@@ -81,6 +81,7 @@
 #include "../image/image_io.h"
 #include "../sdf/sdf_grid_io.h"
 #include "../sdf/sdf_primitives.h"
+#include "../sdf/sdf_zero_bounds.h"
 #include "../util/error.h"
 #include "../util/file.h"
 #include "json_check.h"
@@ -145,6 +146,14 @@ static sdf_function_data parse_sdfunction(const json_place& place,
   auto sdf = sdf_function_data{};
   read_json(place, js, "name", sdf.name);
   parse_sdf_object(place, js, sdf.program, files, sdf.uris);
+  // A function that is no distance bound needs a box for tracing: one it
+  // gives, or one of its zero set; an unbounded one is refused here, where
+  // the file and the element can be named.
+  if (files.check_bounds) {
+    auto unbounded = false;
+    sdf_surface_bounds(sdf.program, unbounded);
+    if (unbounded) throw_json_error(place, "", unbounded_surface_message);
+  }
   read_local_frame(place, js, sdf.local_from_world);
   sdf.material =
       read_reference(place, js, "material", num_materials, "material", true);
@@ -355,7 +364,7 @@ static void check_scene_keys(const json_place& top, const json& js) {
 }
 
 scene_data parse_scene(const std::string& text, const std::string& filename,
-    std::vector<std::string>& warnings, bool load_files) {
+    std::vector<std::string>& warnings, bool load_files, bool check_bounds) {
   auto js  = parse_json(text, filename);
   auto top = json_place{filename, ""};
   if (!js.is_object())
@@ -405,9 +414,10 @@ scene_data parse_scene(const std::string& text, const std::string& filename,
             parse_vol_instance(place, element, num_volumes, num_materials));
       });
   // `.vm` files are read with their sdfunction: they define its nodes.
-  auto files       = sdf_file_context{};
-  files.directory  = std::filesystem::path(filename).parent_path().string();
-  files.load_files = load_files;
+  auto files         = sdf_file_context{};
+  files.directory    = std::filesystem::path(filename).parent_path().string();
+  files.load_files   = load_files;
+  files.check_bounds = load_files && check_bounds;
   parse_array(top, js, "sdfunctions",
       [&](const json_place& place, const json& element) {
         scene.sdfunctions.push_back(

@@ -23,9 +23,13 @@ scene_data load_scene(
 // Parse a scene from JSON text; `filename` names it in errors and anchors
 // relative paths. The whole JSON is validated first; then, when `load_files`
 // is true, the grids and textures it references are loaded (with false they
-// stay empty: for checking a file, and for tests).
+// stay empty: for checking a file, and for tests). With `check_bounds`
+// (and `load_files`) an sdfunction that is no distance bound and whose
+// surface is unbounded is refused (it could not be traced); evaluating
+// functions at points needs no box (Python's f(points)).
 scene_data parse_scene(const std::string& text, const std::string& filename);
 scene_data parse_scene(const std::string& text, const std::string& filename,
-    std::vector<std::string>& warnings, bool load_files = true);
+    std::vector<std::string>& warnings, bool load_files = true,
+    bool check_bounds = true);
 
 }  // namespace implicit

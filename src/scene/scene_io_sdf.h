@@ -17,8 +17,9 @@ namespace implicit {
 
 // Where the `.vm` files of `expression` objects are read from.
 struct sdf_file_context {
-  std::string directory  = "";    // uris are relative to it
-  bool        load_files = true;  // false: not read (the constant 1 instead)
+  std::string directory    = "";    // uris are relative to it
+  bool        load_files   = true;  // false: not read (the constant 1 instead)
+  bool        check_bounds = true;  // refuse unbounded functions (parse_scene)
 };
 
 // Parse an sdfunction object (its type, parameters and nested operands, not

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "../math/interval.h"
+#include "sdf_program.h"
 
 namespace implicit {
 
@@ -93,5 +94,20 @@ inline zero_bounds_result find_zero_bounds(
   }
   return found;
 }
+
+// Box of a program's surface, in its local space: sdf_bounds() where that is
+// finite or the program is a distance bound (a plane is traced unbounded);
+// otherwise (math clauses or warps whose box sdf_bounds cannot tell) the
+// box of the zero set found by find_zero_bounds() over the program's tape,
+// with ranges narrowed by the mean value form. `unbounded` tells that the
+// search reached its cube's faces: the caller refuses the program.
+bbox3f sdf_surface_bounds(const sdf_program& program, bool& unbounded);
+
+// What loaders and make_accel say of a program that sdf_surface_bounds()
+// finds unbounded.
+inline constexpr const char* unbounded_surface_message =
+    "the surface is unbounded (interval subdivision finds it on the faces of "
+    "a cube of half size 8192, or finds NaN there): give the expression "
+    "`bounds` [[x0, y0, z0], [x1, y1, z1]] to clip it to a box";
 
 }  // namespace implicit

@@ -5,8 +5,10 @@
 #include <cstring>
 
 #include "../sdf/sdf_primitives.h"
+#include "../sdf/sdf_zero_bounds.h"
 #include "../util/error.h"
 #include "accel_embree.h"
+#include "field_trace.h"
 #include "sphere_trace.h"
 
 namespace implicit {
@@ -60,13 +62,22 @@ accel_data make_accel(
       object.index            = i;
       object.material         = function.material;
       object.local_from_world = function.local_from_world;
-      object.local_bounds     = sdf_bounds(part);
-      object.exact            = has_exact_intersection(part);
-      object.single           = part.nodes.size() == 1;
+      // Functions that are no distance bound without a box of their own
+      // get the box of their zero set; an unbounded one cannot be traced.
+      auto unbounded      = false;
+      object.local_bounds = sdf_surface_bounds(part, unbounded);
+      if (unbounded)
+        throw io_error("sdfunctions[" + std::to_string(i) + "] (\"" +
+                       function.name + "\"): " + unbounded_surface_message);
+      object.exact  = has_exact_intersection(part);
+      object.single = part.nodes.size() == 1;
       if (object.single) object.shape = part.nodes[0];
       finish_object(object);
-      // Lipschitz bounds above 1 shrink the safe step.
-      object.distance_scale /= std::max(1.0f, sdf_lipschitz(part));
+      // Lipschitz bounds above 1 shrink the safe step; without one, the
+      // object is traced by segments (field_trace.h).
+      auto lipschitz  = sdf_lipschitz(part);
+      object.segments = !std::isfinite(lipschitz);
+      if (!object.segments) object.distance_scale /= std::max(1.0f, lipschitz);
       accel.objects.push_back(object);
       programs.push_back(std::move(part));
     }
@@ -131,7 +142,10 @@ accel_data make_accel(
     field.max_bytes = params.prune_bytes;
     object.field    = std::make_shared<const sdf_field>(
         make_sdf_field(programs[k], box, field));
+    if (object.segments) init_field_bounds(object);
   }
+  for (auto i = 0; i < (int)accel.objects.size(); i++)
+    if (accel.objects[i].segments) accel.segmented.push_back(i);
   // Objects with finite boxes go into the BVH, the others beside it; empty
   // boxes (an intersection of disjoint shapes) can never be hit.
   for (auto i = 0; i < (int)accel.objects.size(); i++) {
@@ -191,7 +205,8 @@ vec3f eval_object_normal(
   auto h = step / std::max(object.distance_scale, 1e-20f);
   switch (object.kind) {
     case object_kind::function:
-      local = eval_sdf_gradient(*object.field, p, h);
+      local = object.segments ? eval_field_gradient(*object.field, p, h)
+                              : eval_sdf_gradient(*object.field, p, h);
       break;
     case object_kind::grid: local = eval_grid_gradient(*object.grid, p); break;
     case object_kind::user:
@@ -296,7 +311,10 @@ scene_intersection intersect_object(const accel_data& accel,
     }
     return isec;
   }
-  auto result      = march_object(accel, march, object, local, t0, t1, cutoff);
+  auto result      = object.segments
+                         ? trace_field(object, march, local, t0, t1, cutoff,
+                               min_hit_epsilon(accel, march))
+                         : march_object(accel, march, object, local, t0, t1, cutoff);
   isec.evaluations = result.evaluations;
   if (result.hit) {
     isec.hit      = true;
@@ -307,14 +325,26 @@ scene_intersection intersect_object(const accel_data& accel,
   return isec;
 }
 
-// The seed's loop: the minimum of all objects' distances at every step.
-static scene_intersection intersect_reference(
+// Whether `isec` replaces `best`: closer, or as close with a lower index.
+static bool is_closer(
+    const scene_intersection& isec, const scene_intersection& best) {
+  if (!isec.hit) return false;
+  if (!best.hit) return true;
+  return isec.distance < best.distance ||
+         (isec.distance == best.distance && isec.object < best.object);
+}
+
+// The seed's loop: the minimum of all objects' distances at every step
+// (objects traced by segments have no distance: intersect_reference()).
+static scene_intersection intersect_reference_march(
     const accel_data& accel, const march_params& march, const ray3f& ray) {
+  if (accel.segmented.size() == accel.objects.size()) return {};
   auto closest  = invalidid;
   auto distance = [&](float t) {
     auto p    = ray_point(ray, t);
     auto best = flt_max;
     for (auto i = 0; i < (int)accel.objects.size(); i++) {
+      if (accel.objects[i].segments) continue;
       auto d = eval_object_distance(accel.objects[i], p);
       if (d < best) {
         best    = d;
@@ -333,7 +363,8 @@ static scene_intersection intersect_reference(
   params.planar = 0;
   auto result = sphere_trace(distance, ray.tmin, t1, flt_max, params, hit_min);
   auto isec   = scene_intersection{};
-  isec.evaluations = result.evaluations * (int)accel.objects.size();
+  isec.evaluations =
+      result.evaluations * (int)(accel.objects.size() - accel.segmented.size());
   if (result.hit) {
     distance(result.distance);  // sets `closest` at the hit point
     isec.hit      = true;
@@ -344,13 +375,21 @@ static scene_intersection intersect_reference(
   return isec;
 }
 
-// Whether `isec` replaces `best`: closer, or as close with a lower index.
-static bool is_closer(
-    const scene_intersection& isec, const scene_intersection& best) {
-  if (!isec.hit) return false;
-  if (!best.hit) return true;
-  return isec.distance < best.distance ||
-         (isec.distance == best.distance && isec.object < best.object);
+// The reference: the seed's loop over the distance objects, and each object
+// that is no distance bound traced alone with its whole tape.
+static scene_intersection intersect_reference(
+    const accel_data& accel, const march_params& march, const ray3f& ray) {
+  auto best = intersect_reference_march(accel, march, ray);
+  for (auto index : accel.segmented) {
+    auto isec = intersect_object(accel, march, index, ray, best.distance);
+    isec.evaluations += best.evaluations;
+    if (is_closer(isec, best)) {
+      best = isec;
+    } else {
+      best.evaluations = isec.evaluations;
+    }
+  }
+  return best;
 }
 
 // Whether the bounded objects go through the BVH (else a loop).

@@ -94,21 +94,27 @@ enum class object_kind { function, grid, user };
 // share their volume's grid and user objects own a copy of the user SDF, so
 // an accel refers to nothing in the scene it was made from.
 struct trace_object {
-  object_kind                      kind             = object_kind::function;
-  int                              index            = invalidid;  // in scene
-  int                              material         = invalidid;
-  frame3f                          local_from_world = {};
-  frame3f                          world_from_local = {};
-  float                            distance_scale   = 1;
-  bbox3f                           local_bounds     = {};
-  bbox3f                           world_bounds     = {};
-  float                            local_padding    = 0;  // box padding, local
-  bool                             exact  = false;  // closed-form intersection
-  bool                             single = false;  // one primitive node
-  sdf_node                         shape  = {};     // that node, if single
-  std::shared_ptr<const sdf_field> field  = nullptr;    // function objects
-  std::shared_ptr<const grid_data> grid   = nullptr;    // the volume's
-  std::shared_ptr<const user_sdf_data> user = nullptr;  // a copy
+  object_kind kind             = object_kind::function;
+  int         index            = invalidid;  // in scene
+  int         material         = invalidid;
+  frame3f     local_from_world = {};
+  frame3f     world_from_local = {};
+  float       distance_scale   = 1;
+  bbox3f      local_bounds     = {};
+  bbox3f      world_bounds     = {};
+  float       local_padding    = 0;      // box padding, local
+  bool        exact            = false;  // closed-form intersection
+  bool        single           = false;  // one primitive node
+  // A function that is no distance bound (field_trace.h): traced by
+  // segments, with the range and the Lipschitz bound of the whole tape over
+  // the padded local box.
+  bool                                 segments        = false;
+  interval                             whole_range     = entire_interval;
+  float                                whole_lipschitz = flt_inf;
+  sdf_node                             shape = {};       // that node, if single
+  std::shared_ptr<const sdf_field>     field = nullptr;  // function objects
+  std::shared_ptr<const grid_data>     grid  = nullptr;  // the volume's
+  std::shared_ptr<const user_sdf_data> user  = nullptr;  // a copy
 };
 
 // Owner of an Embree device and scene. Move-only: the handles are released
@@ -140,6 +146,7 @@ struct accel_data {
   // time.
   std::array<std::vector<float>, 3> bounded_min = {}, bounded_max = {};
   std::vector<int> unbounded = {};  // objects tested beside the BVH
+  std::vector<int> segmented = {};  // objects with `segments` (all kinds)
   embree_bvh       bvh       = {};  // see accel_params::linear_max
 };
 

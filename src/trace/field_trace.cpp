@@ -1,0 +1,133 @@
+// # implicit: tracing functions that are no distance bounds (implementation)
+
+#include "field_trace.h"
+
+#include <cmath>
+
+#include "../sdf/sdf_primitives.h"
+#include "segment_trace.h"
+
+namespace implicit {
+
+void init_field_bounds(trace_object& object) {
+  auto& tape             = object.field->full;
+  auto  box              = expand(object.local_bounds, object.local_padding);
+  object.whole_range     = eval_sdf_interval(tape, box);
+  object.whole_lipschitz = eval_sdf_lipschitz(tape, box);
+}
+
+namespace {
+
+// Fraction of the smallest cell by which locate() looks past the point it
+// is given, so that a point on a face (where the last region ended) finds
+// the cell the ray enters, not the one it leaves.
+inline constexpr float field_probe_fraction = 1e-4f;
+
+// The object's field along one ray, as segment_trace() wants it (see the
+// adaptor's members there). Regions are leaf cells (or invalidid: the whole
+// tape); the last located leaf's box clips the pieces bound() is asked for.
+struct field_ray {
+  const sdf_field* field = nullptr;
+  ray3f            ray   = {};
+  segment_region   whole = {};  // the whole tape over the object's stretch
+  float            probe = 0;   // see field_probe_fraction (t units)
+  mutable int      cell  = invalidid;
+  mutable bbox3f   box   = {};
+
+  // The leaf's clauses, or the whole tape's for invalidid.
+  const sdf_clause* begin(int region) const {
+    if (region < 0) return field->full.clauses.data();
+    return field->clauses.data() + field->cells[region].begin;
+  }
+  const sdf_clause* end(int region) const {
+    if (region < 0) return begin(region) + field->full.clauses.size();
+    return begin(region) + field->cells[region].count;
+  }
+  bool is_constant(int region) const {
+    return region >= 0 && field->cells[region].count == 0;
+  }
+
+  segment_region locate(float t) const {
+    if (field->cells.empty()) return whole;
+    auto leaf_box = bbox3f{};
+    auto index    = find_sdf_cell(*field, ray_point(ray, t + probe), leaf_box);
+    if (index < 0) return whole;
+    cell      = index;
+    box       = leaf_box;
+    auto exit = flt_max;
+    for (auto a = 0; a < 3; a++) {
+      auto d = at(ray.d, a);
+      if (d == 0) continue;
+      auto plane = d > 0 ? at(box.max, a) : at(box.min, a);
+      exit       = std::min(exit, (plane - at(ray.o, a)) / d);
+    }
+    auto& leaf = field->cells[index];
+    return {index, std::min(exit, whole.t_exit), leaf.range,
+        leaf.lipschitz * length(ray.d)};
+  }
+
+  float value(int region, float t) const {
+    return eval_sdf_cell(*field, region, ray_point(ray, t));
+  }
+
+  vec2f value_slope(int region, float t) const {
+    if (is_constant(region)) return {field->cells[region].bound, 0};
+    auto f = eval_sdf_dual(
+        field->full, begin(region), end(region), ray_point(ray, t));
+    return {f.v, dot(gradient(f), ray.d)};
+  }
+
+  segment_bound bound(int region, float t0, float t1) const {
+    if (is_constant(region)) return {field->cells[region].range, 0};
+    auto a = ray_point(ray, t0), b = ray_point(ray, t1);
+    auto piece = bbox3f{min(a, b), max(a, b)};
+    // A simplified tape holds inside its cell only: keep the piece there
+    // (it leaves it by rounding only).
+    if (region >= 0 && region == cell) {
+      auto inside = intersect(piece, box);
+      if (!is_empty(inside)) piece = inside;
+    }
+    auto f = eval_sdf_dual(field->full, begin(region), end(region), piece);
+    // df/dt = gradient . d over the piece.
+    auto slope = mag(f.d[0] * interval{ray.d.x} + f.d[1] * interval{ray.d.y} +
+                     f.d[2] * interval{ray.d.z});
+    return {f.v, slope == slope ? slope : flt_inf};
+  }
+};
+
+}  // namespace
+
+march_result trace_field(const trace_object& object, const march_params& params,
+    const ray3f& local, float t0, float t1, float cutoff, float hit_min) {
+  auto& field    = *object.field;
+  auto  function = field_ray{};
+  function.field = &field;
+  function.ray   = local;
+  function.whole = {invalidid, t1, object.whole_range,
+      object.whole_lipschitz * length(local.d)};
+  if (!field.cells.empty()) {
+    auto smallest  = max(size(field.box)) / (float)(1 << field.depth);
+    function.probe = smallest * field_probe_fraction / length(local.d);
+  }
+  return segment_trace(function, t0, t1, cutoff, params, hit_min);
+}
+
+vec3f eval_field_gradient(const sdf_field& field, vec3f p, float step) {
+  auto cell = find_sdf_cell(field, p);
+  auto f    = dual<float>{};
+  if (cell >= 0 && field.cells[cell].count > 0) {
+    auto begin = field.clauses.data() + field.cells[cell].begin;
+    f = eval_sdf_dual(field.full, begin, begin + field.cells[cell].count, p);
+  } else {
+    f = eval_sdf_dual(field.full, p);
+  }
+  auto g = gradient(f);
+  auto l = length(g);
+  if (l > 0 && std::isfinite(l)) return g / l;
+  g = tetrahedral_gradient(
+      [&](vec3f q) { return eval_sdf(field, q); }, p, step);
+  l = length(g);
+  return l > 0 && std::isfinite(l) ? g / l : vec3f{0, 0, 1};
+}
+
+}  // namespace implicit
