@@ -22,6 +22,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <algorithm>
 
 #include <atomic>
 #include <chrono>
@@ -81,6 +82,23 @@ py::array_t<float> image_to_array(const image_data& image) {
     std::memcpy(array.mutable_data(), image.pixels.data(),
         image.pixels.size() * sizeof(vec4f));
   return array;
+}
+
+// The AOV layers of a render as arrays by name: (height, width, channels),
+// or (height, width) for one channel (depth); with "image" the image.
+py::dict layers_to_dict(const render_state& state) {
+  auto result     = py::dict{};
+  result["image"] = image_to_array(get_image(state));
+  for (auto& layer : average_layers(state.buffer, state.params)) {
+    auto channels = (py::ssize_t)layer.channels.size();
+    auto shape    = std::vector<py::ssize_t>{state.height, state.width};
+    if (channels > 1) shape.push_back(channels);
+    auto array = py::array_t<float>(shape);
+    std::memcpy(array.mutable_data(), layer.values.data(),
+        layer.values.size() * sizeof(float));
+    result[layer.name.c_str()] = array;
+  }
+  return result;
 }
 
 // A (height, width, 4) or (height, width, 3) array as an image; three
@@ -176,9 +194,17 @@ std::vector<const render_option*> python_render_options() {
   return options;
 }
 
+// An option's keyword: its name with '_' for each '-' (noise_threshold).
+std::string python_name(const render_option& option) {
+  auto name = option.name;
+  std::replace(name.begin(), name.end(), '-', '_');
+  return name;
+}
+
 std::string join_names(const std::vector<const render_option*>& options) {
   auto text = std::string{};
-  for (auto option : options) text += (text.empty() ? "" : ", ") + option->name;
+  for (auto option : options)
+    text += (text.empty() ? "" : ", ") + python_name(*option);
   return text;
 }
 
@@ -216,6 +242,23 @@ std::string option_text(const render_option& option, const py::handle& value) {
       if (option.type == render_option_type::text && value.is_none()) return "";
       expected = "a string";
       break;
+    case render_option_type::list:
+      // "albedo,normal" or ["albedo", "normal"].
+      if (py::isinstance<py::str>(value)) return value.cast<std::string>();
+      if (value.is_none()) return "";
+      if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value)) {
+        auto text = std::string{};
+        for (auto name : value) {
+          if (!py::isinstance<py::str>(name)) {
+            text = "";
+            break;
+          }
+          text += (text.empty() ? "" : ",") + name.cast<std::string>();
+        }
+        if (!text.empty() || py::len(value) == 0) return text;
+      }
+      expected = "a list of names";
+      break;
   }
   throw py::type_error(
       option.name + ": expected " + expected + ", found " + type_name(value));
@@ -228,8 +271,10 @@ render_settings read_render_options(const py::kwargs& kwargs) {
   auto settings = render_settings{};
   auto options  = python_render_options();
   for (auto item : kwargs) {
-    auto key    = item.first.cast<std::string>();
-    auto option = find_render_option(key);
+    auto key  = item.first.cast<std::string>();
+    auto name = key;
+    std::replace(name.begin(), name.end(), '_', '-');
+    auto option = find_render_option(name);
     if (!option || !option->python)
       throw py::type_error("unknown render option '" + key +
                            "' (options: " + join_names(options) + ")");
@@ -250,6 +295,15 @@ py::object option_value(const render_option& option, const std::string& text) {
     case render_option_type::choice: return py::str(text);
     case render_option_type::text:
       return text.empty() ? py::object(py::none()) : py::str(text);
+    case render_option_type::list: {
+      auto names = py::list{};
+      for (size_t start = 0; start < text.size();) {
+        auto end = std::min(text.find(',', start), text.size());
+        names.append(py::str(text.substr(start, end - start)));
+        start = end + 1;
+      }
+      return names;
+    }
   }
   return py::none();
 }
@@ -259,7 +313,7 @@ py::dict default_render_options() {
   auto defaults = render_settings{};
   auto options  = py::dict{};
   for (auto option : python_render_options())
-    options[option->name.c_str()] =
+    options[python_name(*option).c_str()] =
         option_value(*option, get_render_option(defaults, *option));
   return options;
 }
@@ -270,7 +324,7 @@ py::dict render_option_help() {
   auto defaults = render_settings{};
   auto help     = py::dict{};
   for (auto option : python_render_options())
-    help[option->name.c_str()] =
+    help[python_name(*option).c_str()] =
         py::make_tuple(render_option_type_names[(int)option->type],
             option_value(*option, get_render_option(defaults, *option)),
             render_option_domain(*option), option->help);
@@ -337,9 +391,15 @@ void render_samples(const render_context& context, render_state& state,
     auto                   worker = std::thread([&] {
       try {
         arena.execute([&] {
+          auto start = std::chrono::steady_clock::now();
           for (auto sample = 0; sample < samples; sample++) {
             if (!render_step(context, state, 1, callbacks)) return;
             count.store(state.samples);
+            // The time budget: stop after the step that reaches it.
+            auto elapsed = std::chrono::duration<double>(
+                std::chrono::steady_clock::now() - start);
+            if (state.params.time > 0 && elapsed.count() >= state.params.time)
+              return;
           }
         });
       } catch (...) { error = std::current_exception(); }
@@ -394,7 +454,7 @@ py_render_setup setup_render(const py_scene& scene, const py::kwargs& kwargs) {
 }
 
 // Render a whole image.
-py::array_t<float> render_scene(const std::shared_ptr<py_scene>& scene,
+py::object render_scene(const std::shared_ptr<py_scene>& scene,
     const py::object& progress, const py::kwargs& kwargs) {
   if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
     throw py::type_error("progress: expected a callable or None");
@@ -406,6 +466,7 @@ py::array_t<float> render_scene(const std::shared_ptr<py_scene>& scene,
   }
   render_samples(
       *setup.context, state, setup.params.samples, setup.threads, progress);
+  if (setup.params.aovs != 0) return layers_to_dict(state);
   return image_to_array(get_image(state));
 }
 

@@ -48,7 +48,11 @@ TEST_CASE("cli: bad options and values fail with a one-line reason") {
            std::string{"--stmaxiter 0"}, std::string{"--mis three"},
            std::string{"--sampler halton"}, std::string{"--lightsampler all"},
            std::string{"--seed -1"}, std::string{"--samples 4294967297"},
-           std::string{"--filmic=3"}, std::string{"--samples 1e3"}}) {
+           std::string{"--filmic=3"}, std::string{"--samples 1e3"},
+           std::string{"--aov albedo,bogus"}, std::string{"--aov ,"},
+           std::string{"--noise-threshold -0.01"},
+           std::string{"--noise-threshold nan"},
+           std::string{"--min-samples -1"}, std::string{"--time -1"}}) {
     auto result = run_ypathtrace(
         "--scene " + example_scene() + " " + args +
         (args.find("--output") == std::string::npos ? " --output " + out : ""));
@@ -62,6 +66,9 @@ TEST_CASE("cli: bad options and values fail with a one-line reason") {
         std::string::npos);  // lists valid names
   auto sampler = run_ypathtrace("--sampler halton");
   CHECK(sampler.output.find("sobol") != std::string::npos);
+  auto aov = run_ypathtrace("--aov albedo,bogus");
+  CHECK(aov.output.find("\"bogus\"") != std::string::npos);
+  CHECK(aov.output.find("position") != std::string::npos);  // lists names
 }
 
 TEST_CASE("cli: a bad option prints its reason and where to look, not usage") {
@@ -163,6 +170,14 @@ TEST_CASE("cli: passes and --savebatch images do not change the render") {
   CHECK(fs::exists(dir / "batches-s0069.exr"));
   CHECK(!fs::exists(dir / "batches-s0070.exr"));  // the final image instead
   CHECK(!fs::exists(dir / "passes-s0064.exr"));
+  // Adaptive sampling decides at fixed samples: batches change nothing, a
+  // time budget that is not reached neither.
+  auto adaptive = std::string{"--samples 40 --noise-threshold 0.1"};
+  auto whole    = render("adaptive.exr", adaptive);
+  CHECK(
+      same(whole, render("adaptive-batches.exr", adaptive + " --savebatch 3")));
+  CHECK(same(whole, render("adaptive-time.exr", adaptive + " --time 1e6")));
+  CHECK(!same(whole, passes));
 }
 
 TEST_CASE("cli: a scene without lights falls back to eyelight") {

@@ -41,7 +41,7 @@ bool same_bytes(const image_data& a, const image_data& b) {
 // and in random sample ranges, each as an MPI rank would: render_pixels()
 // into a tile's buffer, the sums copied into the image's, then the shared
 // averaging.
-image_data render_by_tiles(
+render_buffer render_by_tiles(
     const render_context& context, const trace_params& params, uint32_t seed) {
   auto  size   = render_size(context, params);
   auto& camera = context.scene.cameras[params.camera];
@@ -58,21 +58,32 @@ image_data render_by_tiles(
     for (size_t i = 0; i + 1 < xs.size(); i++)
       tiles.push_back({xs[i], xs[i + 1], ys[j], ys[j + 1]});
   std::shuffle(tiles.begin(), tiles.end(), rng);
-  auto image = make_render_buffer({0, size.x, 0, size.y}, size.x, params.seed);
+  auto image = make_render_buffer(
+      {0, size.x, 0, size.y}, size.x, params.seed, render_layout(params));
   for (auto& tile : tiles) {
-    auto buffer = make_render_buffer(tile, size.x, params.seed);
+    auto buffer =
+        make_render_buffer(tile, size.x, params.seed, render_layout(params));
     for (auto s0 = 0; s0 < params.samples;) {
       auto s1 = std::min(params.samples, s0 + 1 + (int)(rng() % 2));
       render_pixels(context, params, camera, tile, s0, s1, buffer);
       s0 = s1;
     }
-    auto width = tile.x1 - tile.x0;
-    for (auto j = tile.y0; j < tile.y1; j++)
-      for (auto i = tile.x0; i < tile.x1; i++)
-        image.sums[(size_t)j * size.x + i] =
-            buffer.sums[(size_t)(j - tile.y0) * width + (i - tile.x0)];
+    copy_pixels(buffer, image);
   }
-  return average_samples(image, params.samples);
+  return image;
+}
+
+// Whether two buffers' images and AOV layers are the same to the byte.
+bool same_layers(const render_buffer& a, const render_buffer& b,
+    const trace_params& params) {
+  auto la = average_layers(a, params), lb = average_layers(b, params);
+  if (la.size() != lb.size()) return false;
+  for (size_t k = 0; k < la.size(); k++)
+    if (la[k].values.size() != lb[k].values.size() ||
+        std::memcmp(la[k].values.data(), lb[k].values.data(),
+            la[k].values.size() * sizeof(float)) != 0)
+      return false;
+  return true;
 }
 
 }  // namespace
@@ -86,12 +97,18 @@ TEST_CASE("render core: tiles in any order and size give the whole image") {
       params.resolution = 40;
       params.samples    = 3;
       params.sampler    = sampler;
+      params.aovs       = (1 << (int)aov_type_names.size()) - 1;  // all
       auto context      = example_context(params, name);
 
       auto whole = image_data{};
       REQUIRE(render_image(*context, params, whole));
-      CHECK(same_bytes(whole, render_by_tiles(*context, params, 1)));
-      CHECK(same_bytes(whole, render_by_tiles(*context, params, 2)));
+      auto layers = make_render_state(*context, params);
+      REQUIRE(render_step(*context, layers, params.samples));
+      for (auto seed : {1u, 2u}) {
+        auto tiled = render_by_tiles(*context, params, seed);
+        CHECK(same_bytes(whole, average_samples(tiled)));
+        CHECK(same_layers(layers.buffer, tiled, params));
+      }
 
       // Progressive: one sample per step, or all at once.
       auto state = make_render_state(*context, params);
@@ -109,8 +126,53 @@ TEST_CASE("render core: tiles in any order and size give the whole image") {
         auto image = image_data{};
         REQUIRE(render_image(*context, params, image));
         CHECK(same_bytes(whole, image));
+        auto threaded = make_render_state(*context, params);
+        REQUIRE(render_step(*context, threaded, params.samples));
+        CHECK(same_layers(layers.buffer, threaded.buffer, params));
       }
     }
+  }
+}
+
+TEST_CASE("render core: adaptive sampling stops the same pixels anyhow") {
+  // Whatever the passes, tiles and threads, a pixel stops at the same check
+  // from its own data: the same image and counts to the byte.
+  auto params            = trace_params{};
+  params.resolution      = 40;
+  params.samples         = 24;
+  params.noise_threshold = 0.2f;
+  params.min_samples     = 4;
+  auto context           = example_context(params);
+  auto whole             = make_render_state(*context, params);
+  REQUIRE(render_step(*context, whole, params.samples));
+  auto  image   = get_image(whole);
+  auto& counts  = whole.buffer.counts;
+  auto  stopped = std::count_if(counts.begin(), counts.end(),
+       [&](int count) { return count < params.samples; });
+  CHECK(stopped > (int)counts.size() / 10);  // not vacuous either way
+  CHECK(stopped < (int)counts.size());
+  for (auto seed : {1u, 2u}) {
+    auto tiled = render_by_tiles(*context, params, seed);
+    CHECK(same_bytes(image, average_samples(tiled)));
+    CHECK(tiled.counts == counts);
+  }
+  for (auto threads : {1, 2}) {
+    auto control = tbb::global_control{
+        tbb::global_control::max_allowed_parallelism, (size_t)threads};
+    auto state = make_render_state(*context, params);
+    for (auto s = 0; s < params.samples; s += 5)
+      REQUIRE(render_step(*context, state, std::min(5, params.samples - s)));
+    CHECK(same_bytes(image, get_image(state)));
+  }
+  // A stopped pixel stopped at a check, with its estimate below the
+  // threshold; the others took every sample.
+  auto first = adaptive_min_samples(params), step = adaptive_step(params);
+  for (size_t idx = 0; idx < counts.size(); idx++) {
+    if (counts[idx] == params.samples) continue;
+    INFO("pixel ", idx, " stopped at ", counts[idx]);
+    CHECK(counts[idx] >= first);
+    CHECK((counts[idx] - first) % step == 0);
+    CHECK(pixel_error(whole.buffer, idx) < params.noise_threshold);
   }
 }
 

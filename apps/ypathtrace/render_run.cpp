@@ -73,7 +73,7 @@ run_setup make_run_setup(const std::string& filename,
                         : std::vector<int>{};
   setup.plan  = make_render_plan(render_size(*setup.context, setup.params),
        setup.params.samples, options.savebatch, options.turntable, frames,
-       options.tile_size, workers);
+       options.tile_size, workers, setup.params.time);
   return setup;
 }
 
@@ -92,8 +92,9 @@ static bool is_interrupted(void*) { return interrupted.load(); }
 // The bar counts samples per pixel over all frames; the queue reports pixel
 // samples.
 static void on_progress(void* user, int64_t done, int64_t total) {
-  auto& state = *(run_state*)user;
-  auto  units = (int64_t)state.bar.total;
+  auto& state         = *(run_state*)user;
+  auto  units         = (int64_t)state.bar.total;
+  state.bar.converged = state.queue.converged;  // the queue's lock is held
   update_progress(state.bar, (int)(units * done / std::max(total, int64_t{1})));
 }
 
@@ -108,6 +109,7 @@ void start_run(run_state& state, run_setup& setup, const run_options& options,
   auto& plan = setup.plan;
   start_progress(state.bar, message, (int)plan.frames.size() * plan.samples,
       !options.quiet && (launched_by_mpirun() || stderr_is_terminal()));
+  if (plan.turntable == 0) state.bar.limit = plan.time;
   auto callbacks = render_callbacks{
       on_progress, cancellable ? is_interrupted : nullptr, &state};
   start_render_queue(
@@ -117,12 +119,19 @@ void start_run(run_state& state, run_setup& setup, const run_options& options,
 void save_run_output(void* user, const render_output& output) {
   auto& state  = *(run_state*)user;
   auto& params = state.setup->params;
-  save_image(output_filename(state.options->output, state.setup->plan, output),
-      output.image, params.exposure, params.filmic);
+  auto name = output_filename(state.options->output, state.setup->plan, output);
+  save_image(name, output.image, params.exposure, params.filmic,
+      average_layers(output.data, params));
+  if (output.final && output.samples < state.setup->plan.samples)
+    state.notes.push_back("ypathtrace: the time budget ended " + name + " at " +
+                          std::to_string(output.samples) +
+                          " samples per pixel");
 }
 
 int end_run(run_state& state, bool finished) {
   end_progress(state.bar);
+  if (!state.options->quiet)
+    for (auto& note : state.notes) std::fprintf(stderr, "%s\n", note.c_str());
   if (finished) return 0;
   auto& options = *state.options;
   if (interrupted.load()) {

@@ -11,6 +11,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "trace/render_queue.h"
 #include "util/progress.h"
@@ -74,10 +75,11 @@ run_setup make_run_setup(const std::string& filename,
 
 // What saving and the progress bar need while a job runs.
 struct run_state {
-  const run_options* options = nullptr;
-  run_setup*         setup   = nullptr;
-  render_queue       queue   = {};
-  progress_state     bar     = {};
+  const run_options*       options = nullptr;
+  run_setup*               setup   = nullptr;
+  render_queue             queue   = {};
+  progress_state           bar     = {};
+  std::vector<std::string> notes   = {};  // printed after the bar
 };
 
 // Start the job's queue (with the bar, and Ctrl-C as cancel when asked)

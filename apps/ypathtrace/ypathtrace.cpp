@@ -51,6 +51,7 @@ static const char* value_name(render_option_type type) {
     case render_option_type::flag: return "";
     case render_option_type::choice:
     case render_option_type::text: return "NAME";
+    case render_option_type::list: return "LIST";
   }
   return "";
 }

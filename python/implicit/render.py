@@ -59,7 +59,10 @@ def _loaded(scene):
 
 def render(scene, *, progress=None, **options):
     """Render `scene` (a Scene, a loaded scene or a path) and return linear
-    RGBA as a float32 array (height, width, 4).
+    RGBA as a float32 array (height, width, 4). With `aov` (names, as a
+    list or "albedo,normal"), return a dict of arrays by name instead:
+    "image" and each layer, (height, width, 3) or (height, width) for
+    depth, the values ypathtrace writes to the .exr's layers.
 
     Options are ypathtrace's, under the same names (listed below and by
     default_options() and option_help()). `progress`, when

@@ -35,6 +35,9 @@ def run_cli(ypathtrace, scene, output, **options):
     command = [ypathtrace, "--scene", str(scene), "--output", str(output),
                "--quiet"]
     for key, value in options.items():
+        key = key.replace("_", "-")
+        if isinstance(value, (list, tuple)):
+            value = ",".join(value)
         if value is True:
             command.append(f"--{key}")
         elif value is not False and value is not None:

@@ -213,7 +213,11 @@ def test_bad_render_options(source_dir):
             ({"mis": "three"}, ValueError, "valid: one, two"),
             ({"envhidden": 1}, TypeError, "envhidden"),
             ({"threads": -1}, ValueError, "threads"),
-            ({"spp": 4}, TypeError, "unknown render option 'spp'")]:
+            ({"spp": 4}, TypeError, "unknown render option 'spp'"),
+            ({"aov": "albedo,bogus"}, ValueError, "unknown value \"bogus\""),
+            ({"aov": 3}, TypeError, "aov: expected a list of names"),
+            ({"noise_threshold": -1}, ValueError, "noise-threshold"),
+            ({"min_samples": -1}, ValueError, "min-samples")]:
         with pytest.raises(error, match=pattern):
             im.render(scene, **options)
     with pytest.raises(TypeError, match="scene"):
@@ -235,7 +239,7 @@ def test_options_are_the_cli_table(ypathtrace):
     assert defaults["clamp"] == 10.0 and defaults["noimplicitmis"] is False
     assert defaults["shader"] == "implicit" and "exposure" not in defaults
     for name, (kind, default, domain, text) in help.items():
-        assert f"--{name}" in cli_help, name
+        assert f"--{name.replace('_', '-')}" in cli_help, name
         assert text in cli_help, name
         if kind != "flag" and domain:
             assert f"[{domain}]" in cli_help, name
@@ -398,3 +402,17 @@ def test_renderer_refuses_a_second_thread(source_dir):
     assert renderer.samples == 0
     renderer.step()
     assert renderer.samples == 1
+
+
+def test_aovs_by_name(source_dir):
+    # The layers by name beside the image, which they do not change.
+    path = example(source_dir, "sdfunction")
+    plain = im.render(path, **TINY)
+    layers = im.render(path, aov=["albedo", "depth", "variance"], **TINY)
+    assert sorted(layers) == ["albedo", "depth", "image", "variance"]
+    assert np.array_equal(layers["image"], plain)
+    height, width = plain.shape[:2]
+    assert layers["albedo"].shape == (height, width, 3)
+    assert layers["depth"].shape == (height, width)
+    assert layers["depth"].max() > 0 and layers["variance"].min() >= 0
+    assert im.render(path, aov="normal", **TINY)["normal"].shape[2] == 3

@@ -265,7 +265,8 @@ static bool draw_option(
       value = combo_names(label, *option.choices, text);
       break;
     case render_option_type::seed:
-    case render_option_type::text: break;  // not in the viewer
+    case render_option_type::text:
+    case render_option_type::list: break;  // not in the viewer
   }
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", option.help.c_str());
   if (value.empty() || value == text) return false;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "../math/math.h"
@@ -20,6 +21,15 @@ struct image_data {
   int                width  = 0;
   int                height = 0;
   std::vector<vec4f> pixels = {};
+};
+
+// A named layer of float channels beside an image (an AOV: albedo, normal,
+// depth, ...): `channels.size()` values per pixel, interleaved, row-major,
+// with the image's size. OpenEXR writes them as channels "name.channel".
+struct image_layer {
+  std::string              name     = "";
+  std::vector<std::string> channels = {};
+  std::vector<float>       values   = {};
 };
 
 // A black transparent image of the given size.

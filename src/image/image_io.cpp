@@ -445,29 +445,75 @@ static bool write_hdr(std::FILE* file, const image_data& image) {
       stb_write_to_file, file, image.width, image.height, 3, rgb.data());
 }
 
-// Write an OpenEXR file with 32-bit float R, G, B, A channels.
-static void write_exr(
-    std::FILE* file, const std::string& filename, const image_data& image) {
+// Write an OpenEXR file with 32-bit float channels: R, G, B, A of `image`
+// (unless null) and each layer's as "name.channel" (or "channel" with
+// `prefixed` false). OpenEXR sorts the channels by name in the file.
+static void write_exr(std::FILE* file, const std::string& filename,
+    const image_data* image, int width, int height,
+    const std::vector<image_layer>& layers, bool prefixed) {
   auto stream = exr_file_stream{file, filename.c_str()};
-  auto header = Imf::Header{image.width, image.height};
-  for (auto name : {"R", "G", "B", "A"})
-    header.channels().insert(name, Imf::Channel{Imf::FLOAT});
-  auto base    = (char*)image.pixels.data();
-  auto xstride = sizeof(vec4f), ystride = sizeof(vec4f) * (size_t)image.width;
+  auto header = Imf::Header{width, height};
   auto buffer = Imf::FrameBuffer{};
-  buffer.insert("R", Imf::Slice{Imf::FLOAT, base + 0, xstride, ystride});
-  buffer.insert("G", Imf::Slice{Imf::FLOAT, base + 4, xstride, ystride});
-  buffer.insert("B", Imf::Slice{Imf::FLOAT, base + 8, xstride, ystride});
-  buffer.insert("A", Imf::Slice{Imf::FLOAT, base + 12, xstride, ystride});
+  auto insert = [&](const std::string& name, const float* base, size_t step) {
+    header.channels().insert(name, Imf::Channel{Imf::FLOAT});
+    auto xstride = sizeof(float) * step, ystride = xstride * (size_t)width;
+    buffer.insert(name, Imf::Slice{Imf::FLOAT, (char*)base, xstride, ystride});
+  };
+  if (image) {
+    auto base = &image->pixels.data()->x;
+    for (auto c = 0; c < 4; c++) insert(std::string(1, "RGBA"[c]), base + c, 4);
+  }
+  for (auto& layer : layers) {
+    auto step = layer.channels.size();
+    for (size_t c = 0; c < step; c++)
+      insert((prefixed ? layer.name + "." : "") + layer.channels[c],
+          layer.values.data() + c, step);
+  }
   // The destructor writes the line offset table: keep it inside this scope.
   auto output = Imf::OutputFile{stream, header};
   output.setFrameBuffer(buffer);
-  output.writePixels(image.height);
+  output.writePixels(height);
+}
+
+std::string layer_filename(
+    const std::string& filename, const std::string& layer) {
+  auto ext = path_extension(filename);
+  return filename.substr(0, filename.size() - ext.size()) + "." + layer +
+         ".exr";
+}
+
+// Refuse a layer that does not fit the image.
+static void check_layer(const std::string& filename, const image_data& image,
+    const image_layer& layer) {
+  if (layer.name.empty() || layer.channels.empty() ||
+      layer.values.size() != image.pixels.size() * layer.channels.size())
+    throw_io_error(filename, "layer \"" + layer.name +
+                                 "\" does not match the " +
+                                 std::to_string(image.width) + "x" +
+                                 std::to_string(image.height) + " image");
+}
+
+// Write one file through the file layer: a temporary, renamed once
+// complete; any error removes it.
+template <typename Write>
+static void write_image_file(const std::string& filename, const Write& write) {
+  auto out  = output_file{filename};
+  errno     = 0;
+  auto fail = [&](const std::string& reason) {
+    throw_io_error(filename, "cannot write (" + reason + ")");
+  };
+  try {
+    if (!write(out.file)) fail("the encoder failed");
+  } catch (const io_error&) { throw; } catch (const std::exception& error) {
+    fail(error.what());
+  }
+  if (std::ferror(out.file)) fail(errno_reason(errno));
+  commit_file(out);
 }
 
 // Save linear RGBA by extension, through a temporary file and a rename.
 void save_image(const std::string& filename, const image_data& image,
-    float exposure, bool filmic) {
+    float exposure, bool filmic, const std::vector<image_layer>& layers) {
   auto format = get_format(filename);
   if (format == image_format::unknown) throw_unknown_format(filename);
   if (image.width <= 0 || image.height <= 0)
@@ -480,29 +526,28 @@ void save_image(const std::string& filename, const image_data& image,
                       " pixels, expected " + std::to_string(image.width) + "x" +
                       std::to_string(image.height));
 
-  // Through the file layer: a temporary, renamed once complete; any error
-  // below removes it.
-  auto out  = output_file{filename};
-  errno     = 0;
-  auto fail = [&](const std::string& reason) {
-    throw_io_error(filename, "cannot write (" + reason + ")");
-  };
-  try {
-    auto encoded = true;
+  for (auto& layer : layers) check_layer(filename, image, layer);
+  auto w = image.width, h = image.height;
+  write_image_file(filename, [&](std::FILE* file) {
     switch (format) {
       case image_format::ldr:
-        encoded = write_ldr(out.file, filename, image, exposure, filmic);
-        break;
-      case image_format::hdr: encoded = write_hdr(out.file, image); break;
-      case image_format::exr: write_exr(out.file, filename, image); break;
-      case image_format::unknown: break;
+        return write_ldr(file, filename, image, exposure, filmic);
+      case image_format::hdr: return write_hdr(file, image);
+      case image_format::exr:
+        write_exr(file, filename, &image, w, h, layers, true);
+        return true;
+      case image_format::unknown: return false;
     }
-    if (!encoded) fail("the encoder failed");
-  } catch (const io_error&) { throw; } catch (const std::exception& error) {
-    fail(error.what());
+    return false;
+  });
+  if (format == image_format::exr) return;
+  for (auto& layer : layers) {
+    auto name = layer_filename(filename, layer.name);
+    write_image_file(name, [&](std::FILE* file) {
+      write_exr(file, name, nullptr, w, h, {layer}, false);
+      return true;
+    });
   }
-  if (std::ferror(out.file)) fail(errno_reason(errno));
-  commit_file(out);
 }
 
 }  // namespace implicit

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "image.h"
 
@@ -33,8 +34,18 @@ image_data load_image_from_memory(
     const std::string& filename, const void* data, size_t size);
 
 // Save linear RGBA: HDR formats get the values as they are, LDR formats the
-// tonemapped sRGB (exposure in stops, optional filmic curve).
+// tonemapped sRGB (exposure in stops, optional filmic curve). `layers` (AOVs)
+// go into an .exr as channels "layer.channel" (albedo.R, normal.X, depth.Z:
+// OpenEXR's multi-layer naming, which Blender reads); beside any other
+// format each is a file of its own, layer_filename(), with its channels
+// unprefixed. Every file is written atomically.
 void save_image(const std::string& filename, const image_data& image,
-    float exposure = 0, bool filmic = false);
+    float exposure = 0, bool filmic = false,
+    const std::vector<image_layer>& layers = {});
+
+// The file of a layer beside a .png/.jpg/.hdr image: out.png ->
+// out.albedo.exr.
+std::string layer_filename(
+    const std::string& filename, const std::string& layer);
 
 }  // namespace implicit

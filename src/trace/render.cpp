@@ -5,6 +5,7 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <mutex>
@@ -117,18 +118,116 @@ rng_state make_pixel_rng(uint64_t seed, size_t index) {
   return make_rng(seed, (uint64_t)index);
 }
 
-render_buffer make_render_buffer(
-    const render_rect& rect, int width, uint64_t seed) {
+buffer_layout render_layout(const trace_params& params) {
+  auto layout = buffer_layout{};
+  layout.statistics =
+      has_aov(params, aov_type::variance) || params.noise_threshold > 0;
+  layout.albedo   = has_aov(params, aov_type::albedo);
+  layout.normal   = has_aov(params, aov_type::normal);
+  layout.position = has_aov(params, aov_type::position);
+  layout.depth    = has_aov(params, aov_type::depth) || layout.position;
+  return layout;
+}
+
+render_buffer make_render_buffer(const render_rect& rect, int width,
+    uint64_t seed, const buffer_layout& layout) {
   auto buffer        = render_buffer{};
   buffer.rect        = rect;
   auto count         = rect_pixels(rect);
   buffer.sums        = std::vector<vec4f>(count, {0, 0, 0, 0});
   buffer.evaluations = std::vector<int64_t>(count, 0);
+  buffer.counts      = std::vector<int>(count, 0);
+  auto zero3         = vec3f{0, 0, 0};
+  if (layout.statistics) {
+    buffer.squares.assign(count, zero3);
+    buffer.evens.assign(count, zero3);
+  }
+  if (layout.albedo) buffer.albedos.assign(count, zero3);
+  if (layout.normal) buffer.normals.assign(count, zero3);
+  if (layout.depth || layout.position) buffer.depths.assign(count, {0, 0});
+  if (layout.position) buffer.positions.assign(count, zero3);
   buffer.rngs.reserve(count);
   for (auto j = rect.y0; j < rect.y1; j++)
     for (auto i = rect.x0; i < rect.x1; i++)
       buffer.rngs.push_back(make_pixel_rng(seed, (size_t)j * width + i));
   return buffer;
+}
+
+void copy_pixels(const render_buffer& from, render_buffer& to) {
+  auto& a  = from.rect;
+  auto& b  = to.rect;
+  auto  x0 = std::max(a.x0, b.x0), x1 = std::min(a.x1, b.x1);
+  auto  y0 = std::max(a.y0, b.y0), y1 = std::min(a.y1, b.y1);
+  auto  sa = (size_t)(a.x1 - a.x0), sb = (size_t)(b.x1 - b.x0);
+  visit_pixel_arrays(from, to, [&](const auto& source, auto& target) {
+    if (source.empty()) return;
+    if (target.size() != rect_pixels(b)) {
+      target.clear();
+      target.resize(rect_pixels(b), {});
+    }
+    for (auto j = y0; j < y1; j++)
+      for (auto i = x0; i < x1; i++)
+        target[(size_t)(j - b.y0) * sb + (i - b.x0)] =
+            source[(size_t)(j - a.y0) * sa + (i - a.x0)];
+  });
+}
+
+// Add sample `sample` of pixel `idx` to every array the buffer keeps.
+static void add_sample(
+    render_buffer& buffer, size_t idx, int sample, const pixel_sample& result) {
+  auto& color = result.color;
+  auto  rgb   = xyz(color);
+  buffer.sums[idx] += color;
+  buffer.counts[idx] = sample + 1;
+  if (!buffer.squares.empty()) {
+    buffer.squares[idx] += rgb * rgb;
+    if (sample % 2 == 0) buffer.evens[idx] += rgb;
+  }
+  if (!buffer.albedos.empty()) buffer.albedos[idx] += result.albedo;
+  if (!buffer.normals.empty()) buffer.normals[idx] += result.normal;
+  if (!buffer.depths.empty() && result.depth > 0) {
+    auto& depth = buffer.depths[idx];
+    depth       = {depth.x + result.depth, depth.y + 1};
+    if (!buffer.positions.empty()) buffer.positions[idx] += result.position;
+  }
+}
+
+// The variance of a pixel's mean per channel: the sample variance (n - 1
+// degrees of freedom) over n; 0 below 2 samples.
+static vec3f mean_variance(vec3f sum, vec3f squares, int count) {
+  if (count < 2) return {0, 0, 0};
+  auto n        = (float)count;
+  auto variance = (squares - sum * sum * (1 / n)) * (1 / (n - 1));
+  return max(variance, vec3f{0, 0, 0}) * (1 / n);
+}
+
+float pixel_error(const render_buffer& buffer, size_t idx) {
+  auto count = buffer.counts[idx];
+  if (count < 2 || buffer.squares.empty()) return flt_max;
+  auto sum      = xyz(buffer.sums[idx]);
+  auto variance = mean_variance(sum, buffer.squares[idx], count);
+  auto error =
+      std::sqrt(variance.x) + std::sqrt(variance.y) + std::sqrt(variance.z);
+  auto mean = (sum.x + sum.y + sum.z) / (float)count;
+  return error / (1e-4f + std::sqrt(std::max(mean, 0.0f)));
+}
+
+int adaptive_min_samples(const trace_params& params) {
+  if (params.min_samples > 0) return params.min_samples;
+  return std::max(16, params.samples / 16);
+}
+
+int adaptive_step(const trace_params& params) {
+  return std::clamp(adaptive_min_samples(params), 1, max_pass_samples);
+}
+
+bool is_converged(const render_buffer& buffer, size_t idx,
+    const trace_params& params, int sample) {
+  if (params.noise_threshold <= 0) return false;
+  auto first = adaptive_min_samples(params);
+  if (sample < first || (sample - first) % adaptive_step(params) != 0)
+    return false;
+  return pixel_error(buffer, idx) < params.noise_threshold;
 }
 
 void render_pixels(const render_context& context, const trace_params& params,
@@ -139,24 +238,91 @@ void render_pixels(const render_context& context, const trace_params& params,
   auto  stride = (size_t)(held.x1 - held.x0);
   for (auto j = rect.y0; j < rect.y1; j++) {
     for (auto i = rect.x0; i < rect.x1; i++) {
-      auto  idx         = (size_t)(j - held.y0) * stride + (i - held.x0);
-      auto& sum         = buffer.sums[idx];
+      auto idx = (size_t)(j - held.y0) * stride + (i - held.x0);
+      if (buffer.counts[idx] < s0) continue;  // stopped (adaptive sampling)
       auto& rng         = buffer.rngs[idx];
       auto& evaluations = buffer.evaluations[idx];
-      for (auto sample = s0; sample < s1; sample++)
-        sum += trace_sample(context.scene, context.accel, context.lights,
+      for (auto sample = s0; sample < s1; sample++) {
+        if (is_converged(buffer, idx, params, sample)) break;
+        auto result = trace_sample(context.scene, context.accel, context.lights,
             camera, params, {i, j}, size, sample, rng, evaluations);
+        add_sample(buffer, idx, sample, result);
+      }
     }
   }
 }
 
-image_data average_samples(const render_buffer& buffer, int samples) {
+image_data average_samples(const render_buffer& buffer) {
   auto& rect  = buffer.rect;
   auto  image = make_image(rect.x1 - rect.x0, rect.y1 - rect.y0);
-  for (size_t idx = 0; idx < image.pixels.size(); idx++)
+  for (size_t idx = 0; idx < image.pixels.size(); idx++) {
+    auto count = buffer.counts[idx];
     image.pixels[idx] =
-        samples > 0 ? buffer.sums[idx] * (1.0f / samples) : vec4f{0, 0, 0, 0};
+        count > 0 ? buffer.sums[idx] * (1.0f / count) : vec4f{0, 0, 0, 0};
+  }
   return image;
+}
+
+// One pixel's value of an AOV.
+static void eval_layer(
+    const render_buffer& buffer, aov_type aov, size_t idx, float* values) {
+  auto count = buffer.counts[idx];
+  auto value = vec3f{0, 0, 0};
+  auto hits  = buffer.depths.empty() ? 0.0f : buffer.depths[idx].y;
+  switch (aov) {
+    case aov_type::albedo: value = buffer.albedos[idx]; break;
+    case aov_type::normal: value = buffer.normals[idx]; break;
+    case aov_type::position: value = buffer.positions[idx]; break;
+    case aov_type::depth: value = vec3f{buffer.depths[idx].x, 0, 0}; break;
+    case aov_type::variance:
+      value = mean_variance(xyz(buffer.sums[idx]), buffer.squares[idx], count);
+      break;
+  }
+  auto depth_like = aov == aov_type::depth || aov == aov_type::position;
+  if (aov != aov_type::variance) {
+    auto divisor = depth_like ? hits : (float)count;
+    value        = divisor > 0 ? value * (1 / divisor) : vec3f{0, 0, 0};
+  }
+  auto channels = aov == aov_type::depth ? 1 : 3;
+  for (auto c = 0; c < channels; c++) values[c] = (&value.x)[c];
+}
+
+image_layer average_layer(const render_buffer& buffer, aov_type aov) {
+  auto kept = true;
+  switch (aov) {
+    case aov_type::albedo: kept = !buffer.albedos.empty(); break;
+    case aov_type::normal: kept = !buffer.normals.empty(); break;
+    case aov_type::depth: kept = !buffer.depths.empty(); break;
+    case aov_type::position: kept = !buffer.positions.empty(); break;
+    case aov_type::variance: kept = !buffer.squares.empty(); break;
+  }
+  auto& name = aov_type_names[(int)aov];
+  if (!kept)
+    throw io_error("render buffer: the " + name + " layer was not rendered");
+  auto layer = image_layer{};
+  layer.name = name;
+  switch (aov) {
+    case aov_type::albedo:
+    case aov_type::variance: layer.channels = {"R", "G", "B"}; break;
+    case aov_type::normal:
+    case aov_type::position: layer.channels = {"X", "Y", "Z"}; break;
+    case aov_type::depth: layer.channels = {"Z"}; break;
+  }
+  auto channels = layer.channels.size();
+  auto pixels   = rect_pixels(buffer.rect);
+  layer.values.assign(pixels * channels, 0);
+  for (size_t idx = 0; idx < pixels; idx++)
+    eval_layer(buffer, aov, idx, layer.values.data() + idx * channels);
+  return layer;
+}
+
+std::vector<image_layer> average_layers(
+    const render_buffer& buffer, const trace_params& params) {
+  auto layers = std::vector<image_layer>{};
+  for (auto aov = 0; aov < (int)aov_type_names.size(); aov++)
+    if (has_aov(params, (aov_type)aov))
+      layers.push_back(average_layer(buffer, (aov_type)aov));
+  return layers;
 }
 
 // -----------------------------------------------------------------------------
@@ -183,8 +349,14 @@ static void check_buffer(
                    ", " + std::to_string(rect.y1) + ") is outside the " +
                    std::to_string(size.x) + "x" + std::to_string(size.y) +
                    " image");
+  auto kept = [&](size_t length) { return length == 0 || length == count; };
   if (buffer.sums.size() != count || buffer.rngs.size() != count ||
-      buffer.evaluations.size() != count)
+      buffer.evaluations.size() != count || buffer.counts.size() != count ||
+      !kept(buffer.squares.size()) ||
+      buffer.evens.size() != buffer.squares.size() ||
+      !kept(buffer.albedos.size()) || !kept(buffer.normals.size()) ||
+      !kept(buffer.depths.size()) || !kept(buffer.positions.size()) ||
+      (!buffer.positions.empty() && buffer.depths.empty()))
     throw io_error("render buffer: arrays do not match its rectangle");
   if (s0 < 0 || s1 < s0)
     throw io_error("render samples [" + std::to_string(s0) + ", " +
@@ -245,8 +417,8 @@ render_state make_render_state(const render_context& context,
   auto size    = camera_resolution(camera, params.resolution);
   state.width  = size.x;
   state.height = size.y;
-  state.buffer =
-      make_render_buffer({0, size.x, 0, size.y}, size.x, params.seed);
+  state.buffer = make_render_buffer(
+      {0, size.x, 0, size.y}, size.x, params.seed, render_layout(params));
   return state;
 }
 
@@ -261,7 +433,7 @@ bool render_step(const render_context& context, render_state& state,
 }
 
 image_data get_image(const render_state& state) {
-  return average_samples(state.buffer, state.samples);
+  return average_samples(state.buffer);
 }
 
 bool render_image(const render_context& context, const trace_params& params,

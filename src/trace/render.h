@@ -81,37 +81,115 @@ inline size_t rect_pixels(const render_rect& rect) {
   return (size_t)(rect.x1 - rect.x0) * (size_t)(rect.y1 - rect.y0);
 }
 
+// Which per-pixel data a buffer keeps besides sums, streams and counts: each
+// costs memory and a few additions per sample, so only what a render reads.
+struct buffer_layout {
+  bool statistics = false;  // squares and even sums (variance, adaptive)
+  bool albedo     = false;
+  bool normal     = false;
+  bool depth      = false;  // depth and hit counts
+  bool position   = false;  // positions (and depth, for the hit counts)
+};
+
+// The layout the parameters' AOVs need.
+buffer_layout render_layout(const trace_params& params);
+
 // What a render keeps per pixel for the pixels of `rect` (a whole image or
 // a tile), each array row-major over the rectangle. render_pixels() is the
-// one writer: per-pixel data a render adds (sample counts, AOVs, statistics)
-// is one more array here, filled there.
+// one writer: per-pixel data a render adds is one more array here, filled
+// there. Arrays of the layout's data not kept are empty. Every sum adds the
+// pixel's samples in sample order, so it is the same however the samples
+// were cut into passes, blocks, tiles and ranks.
 struct render_buffer {
   render_rect            rect        = {};
   std::vector<vec4f>     sums        = {};  // summed samples (RGB, coverage)
   std::vector<rng_state> rngs        = {};  // each pixel's random stream
   std::vector<int64_t>   evaluations = {};  // SDF evaluations spent
+  std::vector<int>       counts      = {};  // samples summed
+  // Statistics: summed squared RGB, and summed RGB of the even-numbered
+  // samples (0, 2, 4, ...: half buffer A; the odd ones are sums - evens).
+  std::vector<vec3f> squares = {};
+  std::vector<vec3f> evens   = {};
+  // Summed features of the samples (pixel_sample); depths holds the summed
+  // depth and the samples that hit a surface, which positions share.
+  std::vector<vec3f> albedos   = {};
+  std::vector<vec3f> normals   = {};
+  std::vector<vec2f> depths    = {};
+  std::vector<vec3f> positions = {};
 };
+
+// Call `visit(a, b)` with each pair of per-pixel arrays of two buffers that
+// travel with a buffer's pixels (all but evaluations, which only count), in
+// one fixed order: pack, unpack and copy visit them through this one list.
+template <typename A, typename B, typename Visit>
+inline void visit_pixel_arrays(A& a, B& b, const Visit& visit) {
+  visit(a.sums, b.sums);
+  visit(a.rngs, b.rngs);
+  visit(a.counts, b.counts);
+  visit(a.squares, b.squares);
+  visit(a.evens, b.evens);
+  visit(a.albedos, b.albedos);
+  visit(a.normals, b.normals);
+  visit(a.depths, b.depths);
+  visit(a.positions, b.positions);
+}
+
+// Copy the pixels that both rectangles hold from `from` into `to`, for each
+// array `from` keeps (`to` gets the array if it lacks it; zero elsewhere).
+void copy_pixels(const render_buffer& from, render_buffer& to);
 
 // The random stream of pixel `index` (row-major in the image): the stream id
 // is the index, so no two pixels of any image share a stream.
 rng_state make_pixel_rng(uint64_t seed, size_t index);
 
 // A buffer for `rect` of an image `width` pixels wide: zero sums and counts,
-// each pixel's own stream.
-render_buffer make_render_buffer(
-    const render_rect& rect, int width, uint64_t seed);
+// each pixel's own stream, and the arrays of `layout`.
+render_buffer make_render_buffer(const render_rect& rect, int width,
+    uint64_t seed, const buffer_layout& layout = {});
+
+// ADAPTIVE SAMPLING. A pixel's error estimate is Cycles' relative one: the
+// standard error of its mean summed over RGB, over the square root of the
+// mean summed over RGB (dark pixels need less absolute precision); from the
+// sample variance, which stays stable where the half-buffer difference of
+// one pixel is itself noisy. A pixel is tested before samples
+// adaptive_min_samples(), then every adaptive_step() samples, from its own
+// data only, and stops once its estimate is below params.noise_threshold:
+// where a render cuts its samples into passes, tiles or ranks never changes
+// which pixels stop where.
+float pixel_error(const render_buffer& buffer, size_t idx);
+int   adaptive_min_samples(const trace_params& params);
+int   adaptive_step(const trace_params& params);
+// Whether pixel `idx` stops before sample `sample`.
+bool is_converged(const render_buffer& buffer, size_t idx,
+    const trace_params& params, int sample);
 
 // The one render loop: add samples [s0, s1) of `camera` to every pixel of
-// `rect` (within buffer.rect), each pixel's samples in order. The image size
-// is the camera's at params.resolution. Single-threaded; parameters are not
-// validated (render_samples() and the functions below do that).
+// `rect` (within buffer.rect), each pixel's samples in order. A pixel that
+// holds fewer than s0 samples stopped earlier (adaptive sampling) and is
+// left alone; one that converges stops. The image size is the camera's at
+// params.resolution.
+// Single-threaded; parameters are not validated (render_samples() and the
+// functions below do that).
 void render_pixels(const render_context& context, const trace_params& params,
     const camera_data& camera, const render_rect& rect, int s0, int s1,
     render_buffer& buffer);
 
-// The image of a buffer whose pixels hold `samples` summed samples each:
-// sum * (1 / samples), the one division of every render path.
-image_data average_samples(const render_buffer& buffer, int samples);
+// The image of a buffer: each pixel's sum * (1 / its count), the one
+// division of every render path (0 for a pixel without samples).
+image_data average_samples(const render_buffer& buffer);
+
+// The layer of one AOV of a buffer, averaged like the image and named as
+// OpenEXR multi-layer files and Blender name them: albedo (R, G, B) and
+// normal (X, Y, Z) average every sample (misses add zero); depth (Z) and
+// position (X, Y, Z) the samples that hit (0 where none did); variance
+// (R, G, B) is the variance of the pixel's mean per channel (sample
+// variance / count; 0 below 2 samples). Throws io_error when the buffer does
+// not keep the data.
+image_layer average_layer(const render_buffer& buffer, aov_type aov);
+
+// The layers of the parameters' AOVs, in the order of aov_type.
+std::vector<image_layer> average_layers(
+    const render_buffer& buffer, const trace_params& params);
 
 // -----------------------------------------------------------------------------
 // PARALLEL RENDERS

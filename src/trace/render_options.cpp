@@ -2,6 +2,7 @@
 
 #include "render_options.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -117,6 +118,30 @@ static std::vector<render_option> make_render_option_table() {
       "Preview downscale of the viewer (its first, one-sample image)");
   pratio.cli = false, pratio.python = false;
   append(pratio);
+  auto aov    = make_option(id::aov, "aov", type::list,
+         "Layers to write beside the image: in an .exr as channels "
+            "(albedo.R, normal.X, depth.Z, ...), beside other formats as "
+            "<output>.<layer>.exr");
+  aov.choices = &aov_type_names;
+  aov.viewer  = false;  // the viewer shows every layer as a view
+  append(aov);
+  auto threshold =
+      make_option(id::noise_threshold, "noise-threshold", type::number,
+          "Adaptive sampling: a pixel stops once its relative error estimate "
+          "is below this (Cycles' scale: 0.01 is clean; 0: every pixel takes "
+          "every sample)");
+  threshold.max    = 1000;
+  threshold.ui_min = 0, threshold.ui_max = 0.1;
+  append(threshold);
+  append(integer_option(id::min_samples, "min-samples", 0, 1 << 20, 0, 1024,
+      "Adaptive sampling: samples before a pixel may stop (0: the larger of "
+      "16 and samples / 16)"));
+  auto time   = make_option(id::time, "time", type::number,
+        "Time budget in seconds per image: stops after the pass that "
+          "reaches it and writes the samples done (0: none)");
+  time.max    = 1e9;
+  time.viewer = false;
+  append(time);
   return table;
 }
 
@@ -171,6 +196,10 @@ static auto visit_option(
     case render_option_id::accel: return visit(p.accel);
     case render_option_id::threads: return visit(settings.threads);
     case render_option_id::pratio: return visit(p.pratio);
+    case render_option_id::aov: return visit(p.aovs);
+    case render_option_id::noise_threshold: return visit(p.noise_threshold);
+    case render_option_id::min_samples: return visit(p.min_samples);
+    case render_option_id::time: return visit(p.time);
   }
   return visit(p.samples);  // not reached: -Wswitch lists every id
 }
@@ -205,6 +234,15 @@ static std::string join_choices(
   return text;
 }
 
+// The names of the bits set in a list option's value, comma-separated.
+static std::string list_names(const render_option& option, int64_t bits) {
+  auto text = std::string{};
+  for (size_t k = 0; k < option.choices->size(); k++)
+    if (bits & (int64_t{1} << k))
+      text += (text.empty() ? "" : ",") + (*option.choices)[k];
+  return text;
+}
+
 std::string get_render_option(
     const render_settings& settings, const render_option& option) {
   return visit_option(settings, option.id, [&](auto&& field) -> std::string {
@@ -223,6 +261,8 @@ std::string get_render_option(
     } else if constexpr (std::is_same_v<field_type, float>) {
       return format_float(field);
     } else {
+      if (option.type == render_option_type::list)
+        return list_names(option, (int64_t)field);
       return std::to_string(field);
     }
   });
@@ -266,6 +306,10 @@ std::string check_render_option(
     case render_option_type::choice:
       if (value >= 0 && value < (double)option.choices->size()) return "";
       return "unknown value " + get_render_option(settings, option);
+    case render_option_type::list:
+      if (value >= 0 && value < std::ldexp(1.0, (int)option.choices->size()))
+        return "";
+      return "unknown values in " + std::to_string((int64_t)value);
     case render_option_type::seed:
     case render_option_type::flag:
     case render_option_type::text: return "";
@@ -343,6 +387,20 @@ static std::string parse_value(
              "\" (valid: " + join_choices(names, ", ") + ")";
     }
     case render_option_type::text: value.text = text; return "";
+    case render_option_type::list: {
+      auto& names = *option.choices;
+      for (size_t start = 0; start < text.size();) {
+        auto end  = std::min(text.find(',', start), text.size());
+        auto name = text.substr(start, end - start);
+        auto k    = std::find(names.begin(), names.end(), name) - names.begin();
+        if (k == (int64_t)names.size())
+          return "unknown value \"" + name + "\" (valid: any of " +
+                 join_choices(names, ", ") + ")";
+        value.integer |= int64_t{1} << k;
+        start = end + 1;
+      }
+      return "";
+    }
   }
   return "";
 }
@@ -381,6 +439,7 @@ std::string render_option_domain(const render_option& option) {
     case render_option_type::seed: return "0..18446744073709551615";
     case render_option_type::flag: return "true|false";
     case render_option_type::choice: return join_choices(*option.choices, "|");
+    case render_option_type::list: return join_choices(*option.choices, ",");
     case render_option_type::text: return "";
   }
   return "";

@@ -40,16 +40,26 @@ enum class render_option_id {
   // clang-format off
   shader, camera, resolution, samples, bounces, clamp, seed, exposure, filmic,
   envhidden, tentfilter, noimplicitmis, mis, sampler, lightsampler, stmaxiter,
-  accel, threads, pratio
+  accel, threads, pratio, aov, noise_threshold, min_samples, time
   // clang-format on
 };
 
 // How a value is written and checked: integers and numbers within
 // [min, max] (numbers also finite), `seed` any 64-bit unsigned integer,
-// flags "true" or "false", choices one of `choices`, text anything.
-enum class render_option_type { integer, seed, number, flag, choice, text };
+// flags "true" or "false", choices one of `choices`, text anything, a list
+// any subset of `choices`, comma-separated ("" for none; stored as one bit
+// per choice).
+enum class render_option_type {
+  integer,
+  seed,
+  number,
+  flag,
+  choice,
+  text,
+  list
+};
 inline const std::vector<std::string> render_option_type_names = {
-    "integer", "seed", "number", "flag", "choice", "text"};
+    "integer", "seed", "number", "flag", "choice", "text", "list"};
 
 // Where an option appears. Output options act after the render (tone
 // mapping of .png/.jpg): the viewer only re-tonemaps for them, and Python
@@ -57,8 +67,9 @@ inline const std::vector<std::string> render_option_type_names = {
 enum class render_option_stage { render, output };
 
 struct render_option {
-  render_option_id    id     = render_option_id::shader;
-  std::string         name   = "";  // --name, name=, the viewer's label
+  render_option_id id = render_option_id::shader;
+  // --name, the viewer's label; Python's name= has '_' for each '-'.
+  std::string         name   = "";
   render_option_type  type   = render_option_type::integer;
   render_option_stage stage  = render_option_stage::render;
   double              min    = 0;  // integer, number: the valid range

@@ -68,10 +68,27 @@ std::vector<int> frames_to_render(const std::string& output, int turntable) {
 // Largest frame whose sums and streams go whole to a worker (one message).
 inline constexpr double max_frame_item_bytes = 1e9;
 
+// Ends of the batches of a plan: every `savebatch` samples, and with a time
+// budget the passes (1, 2, 4, ... 64, then every 64), then `samples`.
+static std::vector<vec2i> plan_batches(int samples, int savebatch, float time) {
+  auto ends = std::vector<int>{samples};
+  for (auto s = savebatch; savebatch > 0 && s < samples; s += savebatch)
+    ends.push_back(s);
+  for (auto s = 1; time > 0 && s < samples; s += std::min(s, max_pass_samples))
+    ends.push_back(s);
+  std::sort(ends.begin(), ends.end());
+  ends.erase(std::unique(ends.begin(), ends.end()), ends.end());
+  auto batches = std::vector<vec2i>{};
+  for (auto k = 0; k < (int)ends.size(); k++)
+    batches.push_back({k > 0 ? ends[k - 1] : 0, ends[k]});
+  return batches;
+}
+
 render_plan make_render_plan(vec2i size, int samples, int savebatch,
-    int turntable, const std::vector<int>& frames, int tile_size, int workers) {
+    int turntable, const std::vector<int>& frames, int tile_size, int workers,
+    float time) {
   if (size.x < 1 || size.y < 1 || samples < 1 || savebatch < 0 ||
-      turntable < 0 || tile_size < 1 || workers < 1)
+      turntable < 0 || tile_size < 1 || workers < 1 || !(time >= 0))
     throw io_error("render plan: sizes and counts must be positive");
   auto plan      = render_plan{};
   plan.width     = size.x;
@@ -79,10 +96,9 @@ render_plan make_render_plan(vec2i size, int samples, int savebatch,
   plan.samples   = samples;
   plan.turntable = turntable;
   plan.frames    = frames;
-  plan.savebatch = savebatch > 0;
-  auto step      = savebatch > 0 ? savebatch : samples;
-  for (auto s0 = 0; s0 < samples; s0 += step)
-    plan.batches.push_back({s0, std::min(s0 + step, samples)});
+  plan.savebatch = savebatch;
+  plan.time      = time;
+  plan.batches   = plan_batches(samples, savebatch, time);
   auto frame_bytes =
       (double)size.x * size.y * (sizeof(vec4f) + sizeof(rng_state));
   auto whole =
@@ -104,9 +120,9 @@ render_plan make_render_plan(vec2i size, int samples, int savebatch,
 // WORK ITEMS
 // -----------------------------------------------------------------------------
 
-// The header: frame, tile, batch, x0, x1, y0, y1, s0, s1, whether the sums
-// follow, whether the streams follow.
-inline constexpr int item_header_size = 11;
+// The header: frame, tile, batch, x0, x1, y0, y1, s0, s1, then one bit per
+// array of visit_pixel_arrays() that follows.
+inline constexpr int item_header_size = 10;
 
 // Append an array's bytes (an empty vector's data() may be null).
 template <typename T>
@@ -116,13 +132,18 @@ static void pack_array(std::string& bytes, const std::vector<T>& values) {
 }
 
 std::string pack_item(const render_item& item) {
-  int  header[item_header_size] = {item.frame, item.tile, item.batch,
-       item.rect.x0, item.rect.x1, item.rect.y0, item.rect.y1, item.s0, item.s1,
-       !item.sums.empty(), !item.rngs.empty()};
+  auto& rect   = item.data.rect;
+  auto  arrays = 0, bit = 1;
+  visit_pixel_arrays(item.data, item.data, [&](const auto& array, const auto&) {
+    if (!array.empty()) arrays |= bit;
+    bit <<= 1;
+  });
+  int  header[item_header_size] = {item.frame, item.tile, item.batch, rect.x0,
+       rect.x1, rect.y0, rect.y1, item.s0, item.s1, arrays};
   auto bytes                    = std::string{};
   bytes.append((const char*)header, sizeof(header));
-  pack_array(bytes, item.sums);
-  pack_array(bytes, item.rngs);
+  visit_pixel_arrays(item.data, item.data,
+      [&](const auto& array, const auto&) { pack_array(bytes, array); });
   return bytes;
 }
 
@@ -146,18 +167,21 @@ render_item unpack_item(const std::string& bytes) {
   item.frame = header[0];
   item.tile  = header[1];
   item.batch = header[2];
-  item.rect  = {header[3], header[4], header[5], header[6]};
   item.s0    = header[7];
   item.s1    = header[8];
-  auto& rect = item.rect;
+  auto& rect = item.data.rect;
+  rect       = {header[3], header[4], header[5], header[6]};
   if (item.frame < 0 || item.tile < 0 || item.batch < 0 || rect.x0 < 0 ||
       rect.y0 < 0 || rect.x1 < rect.x0 || rect.y1 < rect.y0 || item.s0 < 0 ||
-      item.s1 < item.s0)
+      item.s1 < item.s0 || header[9] < 0 || header[9] >= (1 << 9))
     throw io_error("work item: bad header");
   auto count  = rect_pixels(rect);
   auto offset = sizeof(header);
-  unpack_array(bytes, offset, header[9] ? count : 0, item.sums);
-  unpack_array(bytes, offset, header[10] ? count : 0, item.rngs);
+  auto bit    = 1;
+  visit_pixel_arrays(item.data, item.data, [&](auto& array, auto&) {
+    unpack_array(bytes, offset, (header[9] & bit) ? count : 0, array);
+    bit <<= 1;
+  });
   if (offset != bytes.size()) throw io_error("work item: wrong size");
   return item;
 }
@@ -166,19 +190,21 @@ bool render_item_samples(const render_context& context,
     const trace_params& params, const camera_data& camera,
     const render_plan& plan, render_item& item,
     const render_callbacks& callbacks) {
-  auto buffer = make_render_buffer(item.rect, plan.width, params.seed);
-  auto count  = rect_pixels(item.rect);
-  if ((!item.sums.empty() && item.sums.size() != count) ||
-      (!item.rngs.empty() && item.rngs.size() != count))
-    throw io_error("work item: sums or streams do not match its tile");
-  if (!item.sums.empty()) buffer.sums = std::move(item.sums);
-  if (!item.rngs.empty()) buffer.rngs = std::move(item.rngs);
+  auto buffer = make_render_buffer(
+      item.data.rect, plan.width, params.seed, render_layout(params));
+  auto count = rect_pixels(item.data.rect);
+  auto fits  = true;
+  visit_pixel_arrays(item.data, item.data, [&](const auto& array, const auto&) {
+    fits = fits && (array.empty() || array.size() == count);
+  });
+  if (!fits) throw io_error("work item: its arrays do not match its tile");
+  copy_pixels(item.data, buffer);
   if (!render_samples(
           context, params, camera, item.s0, item.s1, buffer, callbacks))
     return false;
-  item.sums = std::move(buffer.sums);
-  item.rngs = std::move(buffer.rngs);
-  if (item.s1 == plan.samples) item.rngs = {};
+  item.data             = std::move(buffer);
+  item.data.evaluations = {};
+  if (item.s1 == plan.samples) item.data.rngs = {};
   return true;
 }
 
@@ -209,6 +235,7 @@ void start_render_queue(render_queue& queue, const render_plan& plan,
   queue.unfinished = items;
   queue.done       = 0;
   queue.rendering  = 0;
+  queue.converged  = params.noise_threshold > 0 ? 0 : -1;
   queue.total =
       (int64_t)plan.frames.size() * plan.width * plan.height * plan.samples;
   queue.error = "";
@@ -229,14 +256,18 @@ static void activate_frames(render_queue& queue) {
          (int)queue.active.size() < plan.active_frames) {
     auto  frame = plan.frames[queue.next_frame++];
     auto& job   = queue.active[frame];
-    job.buffer  = make_render_buffer(
-         {0, plan.width, 0, plan.height}, plan.width, queue.params.seed);
+    job.buffer = make_render_buffer({0, plan.width, 0, plan.height}, plan.width,
+        queue.params.seed, render_layout(queue.params));
     job.tiles_done.assign(plan.batches.size(), 0);
+    job.start   = std::chrono::steady_clock::now();
+    job.pending = (int)plan.tiles.size();
+    job.tile_batch.assign(plan.tiles.size(), 0);
+    job.tile_converged.assign(plan.tiles.size(), 0);
     for (auto tile = 0; tile < (int)plan.tiles.size(); tile++) {
-      auto item  = render_item{};
-      item.frame = frame;
-      item.tile  = tile;
-      item.rect  = plan.tiles[tile];
+      auto item      = render_item{};
+      item.frame     = frame;
+      item.tile      = tile;
+      item.data.rect = plan.tiles[tile];
       queue.ready.push_back(item);
     }
   }
@@ -253,14 +284,7 @@ static std::optional<render_item> take_ready(render_queue& queue) {
   item.s0    = batch.x;
   item.s1    = batch.y;
   if (item.batch == 0) return item;  // zero sums, the pixels' own streams
-  auto& buffer = queue.active.at(item.frame).buffer;
-  auto  width  = (size_t)queue.plan.width;
-  for (auto j = item.rect.y0; j < item.rect.y1; j++) {
-    for (auto i = item.rect.x0; i < item.rect.x1; i++) {
-      item.sums.push_back(buffer.sums[j * width + i]);
-      item.rngs.push_back(buffer.rngs[j * width + i]);
-    }
-  }
+  copy_pixels(queue.active.at(item.frame).buffer, item.data);
   return item;
 }
 
@@ -282,20 +306,6 @@ std::optional<render_item> wait_item(render_queue& queue) {
   return item;
 }
 
-// Copy an item's sums into an image-wide array, and its streams when it has
-// them and `rngs` is not null.
-static void copy_item(const render_item& item, int width,
-    std::vector<vec4f>& sums, std::vector<rng_state>* rngs) {
-  auto k = size_t{0};
-  for (auto j = item.rect.y0; j < item.rect.y1; j++) {
-    for (auto i = item.rect.x0; i < item.rect.x1; i++, k++) {
-      auto idx  = (size_t)j * width + i;
-      sums[idx] = item.sums[k];
-      if (rngs && !item.rngs.empty()) (*rngs)[idx] = item.rngs[k];
-    }
-  }
-}
-
 // Report the job's progress. Call with the mutex held.
 static void report_progress(render_queue& queue) {
   auto& callbacks = queue.callbacks;
@@ -304,49 +314,116 @@ static void report_progress(render_queue& queue) {
         callbacks.user, queue.done + queue.rendering, queue.total);
 }
 
+// Count the item's pixels that adaptive sampling stopped into its frame's
+// and the queue's counts. Call with the mutex held.
+static void count_converged(
+    render_queue& queue, render_frame& job, const render_item& item) {
+  if (queue.params.noise_threshold <= 0) return;
+  auto stopped = int64_t{0};
+  for (auto count : item.data.counts) stopped += count < item.s1;
+  job.converged += stopped - job.tile_converged[item.tile];
+  job.tile_converged[item.tile] = stopped;
+  queue.converged =
+      (double)job.converged / ((double)queue.plan.width * queue.plan.height);
+}
+
+// End a frame at batch `batch` (its time budget ran out): drop its items
+// that wait and the later batches not made yet; those rendering are
+// dropped when they come back. Call with the mutex held.
+static void end_frame(
+    render_queue& queue, render_frame& job, int frame, int batch) {
+  auto last     = (int)queue.plan.batches.size() - 1;
+  job.end_batch = batch;
+  for (auto it = queue.ready.begin(); it != queue.ready.end();) {
+    if (it->frame != frame) {
+      ++it;
+      continue;
+    }
+    it = queue.ready.erase(it);
+    queue.unassigned--, queue.unfinished--, job.pending--;
+  }
+  for (auto tile_batch : job.tile_batch) {
+    queue.unassigned -= last - tile_batch;
+    queue.unfinished -= last - tile_batch;
+  }
+}
+
+// The images a frame's finished batch completes. Call with the mutex held.
+static void batch_outputs(render_queue& queue, render_frame& job,
+    const render_item& item, std::vector<render_output>& outputs) {
+  auto& plan    = queue.plan;
+  auto  last    = (int)plan.batches.size() - 1;
+  auto  elapsed = std::chrono::duration<double>(
+      std::chrono::steady_clock::now() - job.start)
+                     .count();
+  if (item.batch == last) {
+    auto image      = average_samples(job.buffer);
+    job.buffer.rngs = {};
+    outputs.push_back(
+        {item.frame, item.s1, true, std::move(image), std::move(job.buffer)});
+    return;
+  }
+  auto found = job.batch_data.find(item.batch);
+  if (found == job.batch_data.end()) return;
+  auto data = std::move(found->second);
+  job.batch_data.erase(found);
+  data.rngs  = {};
+  auto ended = plan.time > 0 && elapsed >= plan.time;
+  auto saved = plan.savebatch > 0 && item.s1 % plan.savebatch == 0;
+  if (!ended && !saved) return;
+  auto image = average_samples(data);
+  outputs.push_back(
+      {item.frame, item.s1, ended, std::move(image), std::move(data)});
+  if (ended) end_frame(queue, job, item.frame, item.batch);
+}
+
 std::vector<render_output> finish_item(
     render_queue& queue, const render_item& item) {
   auto  lock    = std::lock_guard<std::mutex>{queue.mutex};
   auto& plan    = queue.plan;
   auto  outputs = std::vector<render_output>{};
   auto  found   = queue.active.find(item.frame);
+  auto& rect    = item.data.rect;
   if (found == queue.active.end() || item.batch >= (int)plan.batches.size() ||
       item.tile >= (int)plan.tiles.size() ||
-      item.sums.size() != rect_pixels(plan.tiles[item.tile]))
+      item.data.sums.size() != rect_pixels(plan.tiles[item.tile]) ||
+      item.data.counts.size() != item.data.sums.size())
     throw io_error("work item: not one the queue handed out");
   auto& job  = found->second;
   auto  last = (int)plan.batches.size() - 1;
-  copy_item(item, plan.width, job.buffer.sums, &job.buffer.rngs);
+  queue.unfinished--;
+  job.pending--;
+  queue.done += (int64_t)rect_pixels(rect) * (item.s1 - item.s0);
+  if (job.end_batch >= 0) {
+    // Its frame ended at the time budget: dropped.
+    if (job.pending == 0) queue.active.erase(found);
+    report_progress(queue);
+    queue.changed.notify_all();
+    return outputs;
+  }
+  copy_pixels(item.data, job.buffer);
+  count_converged(queue, job, item);
   if (item.batch < last) {
-    auto next  = render_item{};
-    next.frame = item.frame;
-    next.tile  = item.tile;
-    next.batch = item.batch + 1;
-    next.rect  = item.rect;
+    auto next      = render_item{};
+    next.frame     = item.frame;
+    next.tile      = item.tile;
+    next.batch     = item.batch + 1;
+    next.data.rect = rect;
     queue.ready.push_back(next);
-    if (plan.savebatch) {
-      auto& sums = job.batch_sums[item.batch];
-      if (sums.empty()) sums.assign(job.buffer.sums.size(), {0, 0, 0, 0});
-      copy_item(item, plan.width, sums, nullptr);
+    job.pending++;
+    job.tile_batch[item.tile] = next.batch;
+    if (plan.savebatch > 0 || plan.time > 0) {
+      auto& data = job.batch_data[item.batch];
+      data.rect  = job.buffer.rect;
+      copy_pixels(item.data, data);
     }
   }
-  queue.unfinished--;
-  queue.done += (int64_t)rect_pixels(item.rect) * (item.s1 - item.s0);
   report_progress(queue);
   queue.changed.notify_all();
   if (++job.tiles_done[item.batch] < (int)plan.tiles.size()) return outputs;
-  if (item.batch == last) {
-    outputs.push_back(
-        {item.frame, item.s1, true, average_samples(job.buffer, item.s1)});
+  batch_outputs(queue, job, item, outputs);
+  if (item.batch == last || (job.end_batch >= 0 && job.pending == 0))
     queue.active.erase(found);
-  } else if (plan.savebatch) {
-    auto sums = render_buffer{};
-    sums.rect = {0, plan.width, 0, plan.height};
-    sums.sums = std::move(job.batch_sums.at(item.batch));
-    outputs.push_back(
-        {item.frame, item.s1, false, average_samples(sums, item.s1)});
-    job.batch_sums.erase(item.batch);
-  }
   return outputs;
 }
 

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -64,7 +65,8 @@ struct render_plan {
   std::vector<int>         frames    = {};  // to render, in order
   std::vector<render_rect> tiles     = {};  // of every frame, row-major
   std::vector<vec2i>       batches   = {};  // [s0, s1) of each batch
-  bool                     savebatch = false;  // images of every batch too
+  int                      savebatch = 0;   // an image every N samples too
+  float                    time      = 0;   // budget per frame, seconds
   int active_frames = 2;  // frames held at once (each worker one, if whole)
 };
 
@@ -73,33 +75,37 @@ struct render_plan {
 // `tile_size` pixels (the last row and column may be smaller), except for a
 // sequence of at least as many frames as workers, which they take whole
 // (when a frame's sums and streams fit one message). Batches: one, or one
-// per `savebatch` samples.
+// per `savebatch` samples; with a `time` budget (seconds per frame) also
+// passes that end at 1, 2, 4, ... 64 samples, then every 64: a frame whose
+// budget has run out when all its tiles finish a batch ends there (its
+// final image has the samples of that batch; pixels that adaptive sampling
+// stopped, fewer).
 render_plan make_render_plan(vec2i size, int samples, int savebatch,
-    int turntable, const std::vector<int>& frames, int tile_size, int workers);
+    int turntable, const std::vector<int>& frames, int tile_size, int workers,
+    float time = 0);
 
 // -----------------------------------------------------------------------------
 // WORK ITEMS
 // -----------------------------------------------------------------------------
 
-// Samples [s0, s1) of one tile of one frame, with the tile's sums and random
-// streams (row-major over the tile): empty for a first batch on the way out,
-// then what the item's render left. After the last batch the streams are
-// dropped.
+// Samples [s0, s1) of one tile of one frame, with the tile's per-pixel data
+// (`data`: the tile's rectangle and the arrays of visit_pixel_arrays(),
+// row-major over the tile): none for a first batch on the way out, then what
+// the item's render left. After the last batch the streams are dropped.
 struct render_item {
-  int                    frame = 0, tile = 0, batch = 0;
-  render_rect            rect = {};
-  int                    s0 = 0, s1 = 0;
-  std::vector<vec4f>     sums = {};
-  std::vector<rng_state> rngs = {};
+  int           frame = 0, tile = 0, batch = 0;
+  int           s0 = 0, s1 = 0;
+  render_buffer data = {};  // data.rect: the tile
 };
 
-// Item <-> bytes: a header of ints, then the sums and the streams if any.
+// Item <-> bytes: a header of ints, then the arrays it holds.
 // unpack_item() throws io_error for bytes that are not an item.
 std::string pack_item(const render_item& item);
 render_item unpack_item(const std::string& bytes);
 
 // Render an item (render_samples(), all threads) with the camera of its frame
-// (item_camera()): its sums and streams start as described above. Returns
+// (item_camera()): its data starts as described above, with the arrays of the
+// parameters' layout (render_layout()). Returns
 // false when cancelled (the item must then be dropped).
 bool render_item_samples(const render_context& context,
     const trace_params& params, const camera_data& camera,
@@ -110,12 +116,14 @@ bool render_item_samples(const render_context& context,
 // QUEUE
 // -----------------------------------------------------------------------------
 
-// An image a job finished: a batch image (--savebatch) or a frame.
+// An image a job finished: a batch image (--savebatch) or a frame, with the
+// frame's per-pixel data at that point (its AOVs and statistics).
 struct render_output {
-  int        frame   = 0;
-  int        samples = 0;  // in every pixel
-  bool       final   = false;
-  image_data image   = {};
+  int           frame   = 0;
+  int           samples = 0;  // in every pixel (most, with adaptive sampling)
+  bool          final   = false;
+  image_data    image   = {};
+  render_buffer data    = {};  // the whole frame, without streams
 };
 
 // The file of an output: `output`, its frame's file in a sequence, or a
@@ -123,13 +131,20 @@ struct render_output {
 std::string output_filename(const std::string& output, const render_plan& plan,
     const render_output& out);
 
-// A frame being rendered: its sums and streams as the items come back.
+// A frame being rendered: its per-pixel data as the items come back.
 struct render_frame {
   render_buffer    buffer     = {};
   std::vector<int> tiles_done = {};  // per batch
-  // Sums at the end of each unfinished batch, for batch images: a tile may
-  // run its next batch before the other tiles finish this one.
-  std::map<int, std::vector<vec4f>> batch_sums = {};
+  // The data at the end of each unfinished batch, for batch images and
+  // the time budget: a tile may run its next batch before the other tiles
+  // finish this one.
+  std::map<int, render_buffer>          batch_data = {};
+  std::chrono::steady_clock::time_point start      = {};  // for the time budget
+  int                  end_batch  = -1;  // the batch the time budget ended at
+  int                  pending    = 0;   // items made and not returned
+  std::vector<int>     tile_batch = {};  // each tile's latest item's batch
+  std::vector<int64_t> tile_converged = {};  // pixels stopped per tile
+  int64_t              converged      = 0;   // their sum
 };
 
 // The queue of a job. Every function below locks it, so the workers of a
@@ -152,10 +167,12 @@ struct render_queue {
   int64_t                     unassigned = 0;   // items not handed out
   int64_t                     unfinished = 0;   // items not returned
   int64_t                     done       = 0;   // pixel samples returned
-  int64_t                     rendering  = 0;   // of this process's item
-  int64_t                     total      = 0;
-  std::string                 error      = "";     // stops every worker
-  std::atomic<bool>           stopped    = false;  // error is set
+  double converged = -1;  // stopped pixels of the last frame updated (< 0:
+                          // no adaptive sampling)
+  int64_t           rendering = 0;  // of this process's item
+  int64_t           total     = 0;
+  std::string       error     = "";     // stops every worker
+  std::atomic<bool> stopped   = false;  // error is set
 };
 
 // Set up the queue for a plan (the queue is not movable: it holds a mutex).

@@ -208,13 +208,14 @@ TEST_CASE("render queue: items come out frame by frame, batch after batch") {
     CHECK(taken[k].batch == 0);
     CHECK(taken[k].s0 == 0);
     CHECK(taken[k].s1 == 3);
-    CHECK(taken[k].sums.empty());  // a first batch travels without data
+    CHECK(taken[k].data.sums.empty());  // a first batch travels without data
   }
   // Returning tile 2 of frame 3 makes its second batch ready, with the
   // first batch's sums and streams.
   auto item = taken[8];
-  item.sums.assign(rect_pixels(item.rect), {1, 2, 3, 4});
-  item.rngs.assign(rect_pixels(item.rect), make_pixel_rng(5, 6));
+  item.data.sums.assign(rect_pixels(item.data.rect), {1, 2, 3, 4});
+  item.data.rngs.assign(rect_pixels(item.data.rect), make_pixel_rng(5, 6));
+  item.data.counts.assign(rect_pixels(item.data.rect), 3);
   CHECK(finish_item(queue, item).empty());
   auto next = take_item(queue);
   REQUIRE(next.has_value());
@@ -223,46 +224,52 @@ TEST_CASE("render queue: items come out frame by frame, batch after batch") {
   CHECK(next->batch == 1);
   CHECK(next->s0 == 3);
   CHECK(next->s1 == 6);
-  REQUIRE(next->sums.size() == rect_pixels(next->rect));
-  CHECK(next->sums[0].w == 4);
-  CHECK(next->rngs[0].state == item.rngs[0].state);
+  REQUIRE(next->data.sums.size() == rect_pixels(next->data.rect));
+  CHECK(next->data.sums[0].w == 4);
+  CHECK(next->data.counts[0] == 3);
+  CHECK(next->data.rngs[0].state == item.data.rngs[0].state);
   CHECK_FALSE(take_item(queue).has_value());
   // A returned item the queue never handed out is refused.
   auto stranger  = taken[0];
   stranger.frame = 2;
-  stranger.sums.assign(rect_pixels(stranger.rect), {});
+  stranger.data.sums.assign(rect_pixels(stranger.data.rect), {});
+  stranger.data.counts.assign(rect_pixels(stranger.data.rect), 0);
   CHECK_THROWS_AS(finish_item(queue, stranger), io_error);
 }
 
 TEST_CASE("render queue: items as bytes") {
-  auto item  = render_item{};
-  item.frame = 3;
-  item.tile  = 7;
-  item.batch = 1;
-  item.rect  = {16, 20, 8, 10};
-  item.s0    = 4;
-  item.s1    = 9;
+  auto item      = render_item{};
+  item.frame     = 3;
+  item.tile      = 7;
+  item.batch     = 1;
+  item.data.rect = {16, 20, 8, 10};
+  item.s0        = 4;
+  item.s1        = 9;
   for (auto k = 0; k < 8; k++) {
-    item.sums.push_back({1.0f * k, 2, 3, 0.5f});
-    item.rngs.push_back(make_pixel_rng(11, k));
+    item.data.sums.push_back({1.0f * k, 2, 3, 0.5f});
+    item.data.rngs.push_back(make_pixel_rng(11, k));
+    item.data.counts.push_back(k);
+    item.data.albedos.push_back({0.5f, 0.25f, 1.0f * k});
   }
   auto bytes = pack_item(item);
   auto back  = unpack_item(bytes);
   CHECK(back.frame == 3);
   CHECK(back.tile == 7);
   CHECK(back.batch == 1);
-  CHECK(back.rect.x0 == 16);
-  CHECK(back.rect.y1 == 10);
+  CHECK(back.data.rect.x0 == 16);
+  CHECK(back.data.rect.y1 == 10);
   CHECK(back.s1 == 9);
+  CHECK(back.data.counts[7] == 7);
+  CHECK(back.data.albedos[7].z == 7);
+  CHECK(back.data.normals.empty());
   CHECK(pack_item(back) == bytes);
   // Truncated, padded, or a header that is not an item.
   CHECK_THROWS_AS(unpack_item(bytes.substr(0, bytes.size() - 1)), io_error);
   CHECK_THROWS_AS(unpack_item(bytes + "x"), io_error);
   CHECK_THROWS_AS(unpack_item(bytes.substr(0, 10)), io_error);
-  auto header = item;
-  header.sums = {};
-  header.rngs = {};
-  header.rect = {5, 4, 0, 1};
+  auto header      = item;
+  header.data      = {};
+  header.data.rect = {5, 4, 0, 1};
   CHECK_THROWS_AS(unpack_item(pack_item(header)), io_error);
 }
 

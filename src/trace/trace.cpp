@@ -225,6 +225,8 @@ struct path_state {
   light_context from     = {};
   // How lights are picked (the render's parameter).
   light_sampler_type light_sampler = light_sampler_type::bvh;
+  // Whether the sample's albedo and normal are set (first non-specular hit).
+  bool featured = false;
 };
 
 // The one sample/pdf/weight step: multiply the path weight by f / pdf.
@@ -427,7 +429,8 @@ static void update_volumes(path_state& path, const surface_point& point,
 // where the path lands, so emitters that cannot be sampled are still found.
 static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const ray3f& camera_ray,
-    const trace_params& params, path_sampler& sampler, int64_t& evaluations) {
+    const trace_params& params, path_sampler& sampler, pixel_sample& features,
+    int64_t& evaluations) {
   auto path          = path_state{};
   path.ray           = camera_ray;
   path.light_sampler = params.light_sampler;
@@ -465,6 +468,10 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     }
 
     if (in_volume) {
+      if (!path.featured) {
+        features.albedo = path.volumes.items[path.volumes.size - 1].scattering;
+        path.featured   = true;
+      }
       if (last) break;
       auto position = ray_point(path.ray, isec.distance);
       if (!shade_medium(
@@ -472,11 +479,11 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
         break;
     } else {
       // Nor does it need the normal and textures of a surface without
-      // emission that light can not pass.
-      if (last && blocks_without_emission(scene, accel.objects[isec.object])) {
-        if (bounce == 0) path.hit = true;  // opaque: the hit counts, as below
+      // emission that light can not pass (once the features are known: the
+      // first hit of a path with one bounce gives them).
+      if (last && path.featured &&
+          blocks_without_emission(scene, accel.objects[isec.object]))
         break;
-      }
       auto  point    = eval_surface(scene, accel, path.ray, isec);
       auto  outgoing = -path.ray.d;
       auto& material = point.material;
@@ -490,7 +497,16 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
           continue;
         }
       }
-      if (bounce == 0) path.hit = true;
+      if (bounce == 0 && !path.hit) {
+        path.hit          = true;
+        features.position = point.position;
+        features.depth    = distance(camera_ray.o, point.position);
+      }
+      if (!path.featured && !is_delta(material)) {
+        features.albedo = material.color;
+        features.normal = point.normal;
+        path.featured   = true;
+      }
 
       // Most surfaces emit nothing: their MIS weight (a light pdf over every
       // light) is not needed.
@@ -552,7 +568,8 @@ static vec3f heat_color(float value) {
 
 // Debug shaders: one intersection, a value of the first hit.
 static vec4f shade_debug(const scene_data& scene, const accel_data& accel,
-    const ray3f& ray, const trace_params& params, int64_t& evaluations) {
+    const ray3f& ray, const trace_params& params, pixel_sample& features,
+    int64_t& evaluations) {
   auto isec = intersect_scene(accel, params.march, ray);
   evaluations += isec.evaluations;
   if (params.shader == shader_type::steps) {
@@ -561,9 +578,13 @@ static vec4f shade_debug(const scene_data& scene, const accel_data& accel,
     return {color.x, color.y, color.z, 1};
   }
   if (!isec.hit) return {0, 0, 0, 0};
-  auto point    = eval_surface(scene, accel, ray, isec);
-  auto outgoing = -ray.d;
-  auto color    = vec3f{0, 0, 0};
+  auto point        = eval_surface(scene, accel, ray, isec);
+  auto outgoing     = -ray.d;
+  features.albedo   = point.material.color;
+  features.normal   = point.normal;
+  features.position = point.position;
+  features.depth    = distance(ray.o, point.position);
+  auto color        = vec3f{0, 0, 0};
   switch (params.shader) {
     case shader_type::implicit_normal:
     case shader_type::normal: color = point.normal * 0.5f + 0.5f; break;
@@ -605,7 +626,7 @@ static float tent_offset(float r) {
   return r < 0.5f ? std::sqrt(2 * r) - 1 : 1 - std::sqrt(2 - 2 * r);
 }
 
-vec4f trace_sample(const scene_data& scene, const accel_data& accel,
+pixel_sample trace_sample(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const camera_data& camera,
     const trace_params& params, vec2i ij, vec2i size, int sample,
     rng_state& rng, int64_t& evaluations) {
@@ -623,13 +644,15 @@ vec4f trace_sample(const scene_data& scene, const accel_data& accel,
   auto uv = vec2f{(i + puv.x) / size.x, (j + puv.y) / size.y};
   // The lens sample is drawn only for cameras that use it (pinholes skip
   // the warp, as it costs a sizeable part of a camera ray).
-  auto lens  = camera.aperture > 0 ? sample_disk(next2f(sampler)) : vec2f{0, 0};
-  auto ray   = eval_camera(camera, uv, lens);
-  auto color = params.shader == shader_type::implicit
-                   ? shade_implicit(scene, accel, lights, ray, params, sampler,
-                         evaluations)
-                   : shade_debug(scene, accel, ray, params, evaluations);
-  auto rgb   = xyz(color);
+  auto lens = camera.aperture > 0 ? sample_disk(next2f(sampler)) : vec2f{0, 0};
+  auto ray  = eval_camera(camera, uv, lens);
+  auto result = pixel_sample{};
+  auto color =
+      params.shader == shader_type::implicit
+          ? shade_implicit(
+                scene, accel, lights, ray, params, sampler, result, evaluations)
+          : shade_debug(scene, accel, ray, params, result, evaluations);
+  auto rgb = xyz(color);
   if (!isfinite(rgb)) rgb = {0, 0, 0};
   if (max(rgb) > params.clamp) rgb = rgb * (params.clamp / max(rgb));
   // Without envhidden the environment counts as coverage.
@@ -637,7 +660,8 @@ vec4f trace_sample(const scene_data& scene, const accel_data& accel,
   if (params.shader == shader_type::implicit && !params.envhidden &&
       !scene.environments.empty())
     alpha = 1;
-  return {rgb.x, rgb.y, rgb.z, alpha};
+  result.color = {rgb.x, rgb.y, rgb.z, alpha};
+  return result;
 }
 
 }  // namespace implicit

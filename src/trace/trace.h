@@ -42,6 +42,14 @@ inline const std::vector<std::string> mis_type_names = {"one", "two"};
 enum class sampler_type { sobol, random };
 inline const std::vector<std::string> sampler_type_names = {"sobol", "random"};
 
+// Per-pixel layers a render writes besides the image (AOVs, arbitrary output
+// variables): the averaged features of pixel_sample and the variance of the
+// pixel's mean. trace_params::aovs holds one bit per type (aov_bit()).
+enum class aov_type { albedo, normal, depth, position, variance };
+inline const std::vector<std::string> aov_type_names = {
+    "albedo", "normal", "depth", "position", "variance"};
+inline constexpr int aov_bit(aov_type aov) { return 1 << (int)aov; }
+
 struct trace_params {
   int                camera       = 0;
   int                resolution   = 720;
@@ -61,19 +69,46 @@ struct trace_params {
   int                pratio        = 8;  // viewer preview downscale
   float              exposure      = 0;  // output tone mapping, in stops (LDR)
   bool               filmic        = false;
+  int                aovs          = 0;  // aov_bit()s of the layers to write
+  // Adaptive sampling: a pixel stops once its relative error estimate is
+  // below the threshold (0: off), checked from min_samples on (0: automatic).
+  float noise_threshold = 0;
+  int   min_samples     = 0;
+  float time            = 0;  // budget in seconds per image (0: none)
 };
+
+// Whether the parameters ask for an AOV.
+inline bool has_aov(const trace_params& params, aov_type aov) {
+  return (params.aovs & aov_bit(aov)) != 0;
+}
 
 // -----------------------------------------------------------------------------
 // SAMPLES
 // -----------------------------------------------------------------------------
 
+// What one sample of a pixel gives: its colour, and the features of its
+// path that AOVs and the denoiser average over the pixel's samples. Albedo
+// and normal are the first non-specular hit's (the path follows mirrors,
+// glass and pass-through surfaces to it, as Open Image Denoise expects;
+// in a medium, the first scattering event: its albedo, no normal); position
+// and depth are the first surface the camera sees (the one that covers the
+// pixel). Zero where there is none.
+struct pixel_sample {
+  vec4f color    = {0, 0, 0, 0};  // linear RGB (clamped, finite), coverage
+  vec3f albedo   = {0, 0, 0};
+  vec3f normal   = {0, 0, 0};  // world space, unit or zero
+  vec3f position = {0, 0, 0};
+  float depth    = 0;  // distance from the camera; 0: the camera sees nothing
+};
+
 // Sample `sample` of pixel `ij` of an image of `size` pixels seen by
-// `camera`: linear RGB (clamped, non-finite values as 0) and coverage.
-// `rng` is the pixel's random stream (the random sampler draws from it; the
-// Sobol sampler derives its points from the seed, the pixel and `sample`);
-// `evaluations` counts the SDF evaluations spent. Thread-safe; allocates
-// nothing. The render core (render.h) sums these over pixels and samples.
-vec4f trace_sample(const scene_data& scene, const accel_data& accel,
+// `camera`. `rng` is the pixel's random stream (the random sampler draws
+// from it; the Sobol sampler derives its points from the seed, the pixel and
+// `sample`); `evaluations` counts the SDF evaluations spent. The features
+// cost a few copies per path: they are always computed. Thread-safe;
+// allocates nothing. The render core (render.h) sums these over pixels and
+// samples.
+pixel_sample trace_sample(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const camera_data& camera,
     const trace_params& params, vec2i ij, vec2i size, int sample,
     rng_state& rng, int64_t& evaluations);

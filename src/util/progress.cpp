@@ -32,7 +32,7 @@ std::string format_duration(double seconds) {
 
 // The progress line: bar, counts, elapsed, ETA, message.
 std::string format_progress(const std::string& message, int current, int total,
-    double elapsed_seconds) {
+    double elapsed_seconds, double limit, double converged) {
   total   = std::max(total, 0);
   current = std::clamp(current, 0, total);
   // An empty task is complete: a full bar and no time left.
@@ -52,8 +52,15 @@ std::string format_progress(const std::string& message, int current, int total,
   } else if (current == 0) {
     line += "--:--";
   } else {
-    line += format_duration(
-        std::max(elapsed_seconds, 0.0) * (total - current) / current);
+    auto eta = std::max(elapsed_seconds, 0.0) * (total - current) / current;
+    if (limit > 0) eta = std::min(eta, limit - elapsed_seconds);
+    line += format_duration(eta);
+  }
+  if (converged >= 0) {
+    char percent[32];
+    std::snprintf(percent, sizeof(percent), " conv %d%%",
+        (int)(100 * std::clamp(converged, 0.0, 1.0)));
+    line += percent;
   }
   if (!message.empty()) line += " " + message;
   return line;
@@ -75,8 +82,8 @@ static double elapsed_seconds(const progress_state& progress) {
 
 // Rewrite the line in place, padding over a longer previous line.
 static void print_progress(progress_state& progress, double elapsed) {
-  auto line = format_progress(
-      progress.message, progress.current, progress.total, elapsed);
+  auto line   = format_progress(progress.message, progress.current,
+        progress.total, elapsed, progress.limit, progress.converged);
   auto length = line.size();
   if (line.size() < progress.last_length)
     line += std::string(progress.last_length - line.size(), ' ');

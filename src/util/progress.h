@@ -22,18 +22,23 @@ namespace implicit {
 // The progress line, without '\r' or newline, e.g.
 // "[=====               ]   16/  64 00:04 eta 00:12 render image".
 // Counts are clamped to [0, total]; the ETA is "--:--" before the first step.
-std::string format_progress(
-    const std::string& message, int current, int total, double elapsed_seconds);
+// With a time `limit` (seconds, 0: none) the ETA never passes it; a
+// `converged` fraction in [0, 1] (adaptive sampling; negative: none) is
+// shown as "conv 37%".
+std::string format_progress(const std::string& message, int current, int total,
+    double elapsed_seconds, double limit = 0, double converged = -1);
 
 // A time in seconds as mm:ss (minutes grow past 99; negative or NaN as 0).
 std::string format_duration(double seconds);
 
 // State of one progress bar. Printing happens only when enabled.
 struct progress_state {
-  bool        enabled = false;
-  std::string message = "";
-  int         total   = 0;
-  int         current = 0;
+  bool        enabled   = false;
+  std::string message   = "";
+  int         total     = 0;
+  int         current   = 0;
+  double      limit     = 0;   // time budget in seconds (0: none)
+  double      converged = -1;  // fraction of converged pixels (< 0: none)
   // Where the line goes; stderr unless a test redirects it.
   std::FILE*                            stream = stderr;
   std::chrono::steady_clock::time_point start  = {};

@@ -49,6 +49,12 @@ TEST_CASE("progress format_progress known lines") {
   // Counts wider than four digits widen the line, and no message, no space.
   CHECK(format_progress("", 5000, 10000, 61) ==
         "[==========          ] 5000/10000 01:01 eta 01:01");
+  // A time budget of 30 s caps the estimate (12 s -> 26 s left of 30 s is
+  // more, 40 s of work left is capped to the 26 s); the converged fraction.
+  CHECK(format_progress("r", 16, 64, 4.0, 30) ==
+        "[=====               ]   16/  64 00:04 eta 00:12 r");
+  CHECK(format_progress("r", 1, 11, 4.0, 30, 0.375) ==
+        "[=                   ]    1/  11 00:04 eta 00:26 conv 37% r");
 }
 
 TEST_CASE("progress format_progress clamps bad counts") {
