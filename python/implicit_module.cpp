@@ -88,7 +88,7 @@ py::array_t<float> image_to_array(const image_data& image) {
 // or (height, width) for one channel (depth); with "image" the image.
 py::dict layers_to_dict(const render_state& state) {
   auto result     = py::dict{};
-  result["image"] = image_to_array(get_image(state));
+  result["image"] = image_to_array(output_image(state.buffer, state.params));
   for (auto& layer : average_layers(state.buffer, state.params)) {
     auto channels = (py::ssize_t)layer.channels.size();
     auto shape    = std::vector<py::ssize_t>{state.height, state.width};
@@ -467,7 +467,7 @@ py::object render_scene(const std::shared_ptr<py_scene>& scene,
   render_samples(
       *setup.context, state, setup.params.samples, setup.threads, progress);
   if (setup.params.aovs != 0) return layers_to_dict(state);
-  return image_to_array(get_image(state));
+  return image_to_array(output_image(state.buffer, state.params));
 }
 
 // A progressive render: each step adds samples.

@@ -158,3 +158,47 @@ TEST_CASE("clean: --time stops after a pass and writes a valid image") {
   CHECK(exr_channels(out).count("variance.R") == 1);
   CHECK(!fs::exists(dir / "out-s100000.exr"));
 }
+
+TEST_CASE("clean: --denoise writes the denoiser's image of the render") {
+  auto dir    = test_dir("clean_denoise");
+  auto out    = (dir / "out.exr").string();
+  auto result = run_command(program_path("ypathtrace") + " --scene " +
+                            example_scene() + " --output " + out +
+                            " --resolution 40 --samples 6 --quiet "
+                            "--denoise --savebatch 4 --threads 2");
+  INFO(result.output);
+  REQUIRE(result.status == 0);
+  // The same render here, its buffers handed to the denoiser.
+  auto params       = trace_params{};
+  params.resolution = 40;
+  params.samples    = 6;
+  params.denoise    = true;
+  auto context      = make_render_context(load_scene(example_scene()), params);
+  auto warnings     = std::vector<std::string>{};
+  params            = resolve_params(*context, params, "", warnings);
+  auto state        = make_render_state(*context, params);
+  REQUIRE(render_step(*context, state, 4));
+  auto buffers = make_denoise_buffers(state.buffer);
+  // Half buffers: samples 0, 2 and 1, 3 average to the mean.
+  for (size_t idx = 0; idx < buffers.color.size(); idx++) {
+    auto mean = (buffers.color_a[idx] + buffers.color_b[idx]) * 0.5f;
+    CHECK(length(mean - buffers.color[idx]) <=
+          1e-5f * (1 + length(buffers.color[idx])));
+  }
+  auto batch    = load_image((dir / "out-s0004.exr").string());
+  auto denoised = denoise_image(buffers);
+  auto raw      = get_image(state);
+  auto changed  = 0;
+  for (size_t idx = 0; idx < denoised.size(); idx++) {
+    CHECK(batch.pixels[idx].x == denoised[idx].x);
+    CHECK(batch.pixels[idx].z == denoised[idx].z);
+    CHECK(batch.pixels[idx].w == raw.pixels[idx].w);  // coverage as is
+    changed += denoised[idx].x != raw.pixels[idx].x;
+  }
+  CHECK(changed > (int)denoised.size() / 2);
+  REQUIRE(render_step(*context, state, 2));
+  auto final = load_image(out);
+  auto image = output_image(state.buffer, params);
+  CHECK(std::memcmp(final.pixels.data(), image.pixels.data(),
+            image.pixels.size() * sizeof(vec4f)) == 0);
+}

@@ -416,3 +416,12 @@ def test_aovs_by_name(source_dir):
     assert layers["depth"].shape == (height, width)
     assert layers["depth"].max() > 0 and layers["variance"].min() >= 0
     assert im.render(path, aov="normal", **TINY)["normal"].shape[2] == 3
+
+
+def test_denoise_option(source_dir):
+    path = example(source_dir, "sdfunction")
+    plain = im.render(path, **TINY)
+    denoised = im.render(path, denoise=True, **TINY)
+    assert denoised.shape == plain.shape and np.isfinite(denoised).all()
+    assert not np.array_equal(denoised[..., :3], plain[..., :3])
+    assert np.array_equal(denoised[..., 3], plain[..., 3])

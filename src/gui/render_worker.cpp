@@ -70,13 +70,15 @@ static void render_job_passes(
     auto state   = make_render_state(context, preview, job.camera);
     auto start   = std::chrono::steady_clock::now();
     if (!render_step_cancellable(context, state, worker.latest, id)) return;
-    publish(worker, id, get_image(state), state.samples, true, elapsed(start));
+    publish(worker, id, output_image(state.buffer, preview), state.samples,
+        true, elapsed(start));
   }
   auto state = make_render_state(context, params, job.camera);
   while (state.samples < params.samples) {
     auto start = std::chrono::steady_clock::now();
     if (!render_step_cancellable(context, state, worker.latest, id)) return;
-    publish(worker, id, get_image(state), state.samples, false, elapsed(start));
+    publish(worker, id, output_image(state.buffer, params), state.samples,
+        false, elapsed(start));
   }
 }
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 
 #include "../util/error.h"
@@ -119,13 +120,14 @@ rng_state make_pixel_rng(uint64_t seed, size_t index) {
 }
 
 buffer_layout render_layout(const trace_params& params) {
-  auto layout = buffer_layout{};
-  layout.statistics =
-      has_aov(params, aov_type::variance) || params.noise_threshold > 0;
-  layout.albedo   = has_aov(params, aov_type::albedo);
-  layout.normal   = has_aov(params, aov_type::normal);
+  auto layout       = buffer_layout{};
+  layout.statistics = has_aov(params, aov_type::variance) ||
+                      params.noise_threshold > 0 || params.denoise;
+  layout.albedo   = has_aov(params, aov_type::albedo) || params.denoise;
+  layout.normal   = has_aov(params, aov_type::normal) || params.denoise;
   layout.position = has_aov(params, aov_type::position);
-  layout.depth    = has_aov(params, aov_type::depth) || layout.position;
+  layout.depth =
+      has_aov(params, aov_type::depth) || layout.position || params.denoise;
   return layout;
 }
 
@@ -285,6 +287,58 @@ static void eval_layer(
   }
   auto channels = aov == aov_type::depth ? 1 : 3;
   for (auto c = 0; c < channels; c++) values[c] = (&value.x)[c];
+}
+
+denoise_buffers make_denoise_buffers(const render_buffer& buffer) {
+  auto& rect     = buffer.rect;
+  auto  pixels   = rect_pixels(rect);
+  auto  result   = denoise_buffers{};
+  result.width   = rect.x1 - rect.x0;
+  result.height  = rect.y1 - rect.y0;
+  result.samples = buffer.counts;
+  auto plane     = [&](aov_type aov) {
+    auto values = std::vector<vec3f>(pixels);
+    auto layer  = average_layer(buffer, aov);
+    for (size_t idx = 0; idx < pixels; idx++) {
+      auto v      = layer.values.data() + idx * 3;
+      values[idx] = {v[0], v[1], v[2]};
+    }
+    return values;
+  };
+  if (!buffer.squares.empty()) {
+    result.variance = plane(aov_type::variance);
+    result.color_a.resize(pixels);
+    result.color_b.resize(pixels);
+  }
+  if (!buffer.albedos.empty()) result.albedo = plane(aov_type::albedo);
+  if (!buffer.normals.empty()) result.normal = plane(aov_type::normal);
+  if (!buffer.depths.empty())
+    result.depth = average_layer(buffer, aov_type::depth).values;
+  result.color.resize(pixels);
+  for (size_t idx = 0; idx < pixels; idx++) {
+    auto count        = buffer.counts[idx];
+    auto sum          = xyz(buffer.sums[idx]);
+    result.color[idx] = count > 0 ? sum * (1.0f / count) : vec3f{0, 0, 0};
+    if (buffer.evens.empty()) continue;
+    // Samples 0, 2, 4, ... and 1, 3, 5, ...: (count + 1) / 2 and count / 2.
+    auto na = (count + 1) / 2, nb = count / 2;
+    auto even           = buffer.evens[idx];
+    result.color_a[idx] = na > 0 ? even * (1.0f / na) : vec3f{0, 0, 0};
+    result.color_b[idx] = nb > 0 ? (sum - even) * (1.0f / nb) : vec3f{0, 0, 0};
+  }
+  return result;
+}
+
+image_data output_image(
+    const render_buffer& buffer, const trace_params& params) {
+  auto image = average_samples(buffer);
+  if (!params.denoise) return image;
+  auto denoised = denoise_image(make_denoise_buffers(buffer));
+  for (size_t idx = 0; idx < image.pixels.size(); idx++) {
+    auto& rgb         = denoised[idx];
+    image.pixels[idx] = {rgb.x, rgb.y, rgb.z, image.pixels[idx].w};
+  }
+  return image;
 }
 
 image_layer average_layer(const render_buffer& buffer, aov_type aov) {

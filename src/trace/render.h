@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "../image/denoise.h"
 #include "trace.h"
 
 namespace implicit {
@@ -177,6 +178,17 @@ void render_pixels(const render_context& context, const trace_params& params,
 // The image of a buffer: each pixel's sum * (1 / its count), the one
 // division of every render path (0 for a pixel without samples).
 image_data average_samples(const render_buffer& buffer);
+
+// The denoiser's buffers (image/denoise.h) of a whole-image buffer that
+// keeps the statistics and features (render_layout() with params.denoise):
+// means, half-buffer means, variance of the mean, albedo, normal, depth and
+// counts per pixel.
+denoise_buffers make_denoise_buffers(const render_buffer& buffer);
+
+// The image of a buffer, denoised when params.denoise (alpha stays the
+// average coverage): what every front end shows or writes.
+image_data output_image(
+    const render_buffer& buffer, const trace_params& params);
 
 // The layer of one AOV of a buffer, averaged like the image and named as
 // OpenEXR multi-layer files and Blender name them: albedo (R, G, B) and

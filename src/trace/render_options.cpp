@@ -142,6 +142,9 @@ static std::vector<render_option> make_render_option_table() {
   time.max    = 1e9;
   time.viewer = false;
   append(time);
+  append(make_option(id::denoise, "denoise", type::flag,
+      "Denoise the images (and --savebatch images) with their per-pixel "
+      "statistics, albedo, normal and depth (image/denoise.h)"));
   return table;
 }
 
@@ -200,6 +203,7 @@ static auto visit_option(
     case render_option_id::noise_threshold: return visit(p.noise_threshold);
     case render_option_id::min_samples: return visit(p.min_samples);
     case render_option_id::time: return visit(p.time);
+    case render_option_id::denoise: return visit(p.denoise);
   }
   return visit(p.samples);  // not reached: -Wswitch lists every id
 }

@@ -40,7 +40,7 @@ enum class render_option_id {
   // clang-format off
   shader, camera, resolution, samples, bounces, clamp, seed, exposure, filmic,
   envhidden, tentfilter, noimplicitmis, mis, sampler, lightsampler, stmaxiter,
-  accel, threads, pratio, aov, noise_threshold, min_samples, time
+  accel, threads, pratio, aov, noise_threshold, min_samples, time, denoise
   // clang-format on
 };
 

@@ -357,7 +357,7 @@ static void batch_outputs(render_queue& queue, render_frame& job,
       std::chrono::steady_clock::now() - job.start)
                      .count();
   if (item.batch == last) {
-    auto image      = average_samples(job.buffer);
+    auto image      = output_image(job.buffer, queue.params);
     job.buffer.rngs = {};
     outputs.push_back(
         {item.frame, item.s1, true, std::move(image), std::move(job.buffer)});
@@ -371,7 +371,7 @@ static void batch_outputs(render_queue& queue, render_frame& job,
   auto ended = plan.time > 0 && elapsed >= plan.time;
   auto saved = plan.savebatch > 0 && item.s1 % plan.savebatch == 0;
   if (!ended && !saved) return;
-  auto image = average_samples(data);
+  auto image = output_image(data, queue.params);
   outputs.push_back(
       {item.frame, item.s1, ended, std::move(image), std::move(data)});
   if (ended) end_frame(queue, job, item.frame, item.batch);

@@ -74,7 +74,8 @@ struct trace_params {
   // below the threshold (0: off), checked from min_samples on (0: automatic).
   float noise_threshold = 0;
   int   min_samples     = 0;
-  float time            = 0;  // budget in seconds per image (0: none)
+  float time            = 0;      // budget in seconds per image (0: none)
+  bool  denoise         = false;  // images filtered by denoise_image()
 };
 
 // Whether the parameters ask for an AOV.
