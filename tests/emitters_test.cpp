@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "math/random.h"
+#include "sdf/sdf_expression.h"
 #include "sdf/sdf_grid.h"
 #include "trace/render.h"
 
@@ -152,6 +153,25 @@ TEST_CASE("emitters: analytic shapes, CSG parts and textures light alike") {
   auto box = make_node(sdf_type::box);
   box.size = {0.3f, 0.05f, 0.2f};
   scene.sdfunctions.push_back(make_function(box, {-0.4f, 1.1f, -0.6f}, 1));
+  check_estimators_agree(scene, 3);
+}
+
+TEST_CASE("emitters: expressions and warped primitives light alike") {
+  // Functions that are no distance bounds (traced by segments): a quartic
+  // blob scaled by 1000 and a twisted box.
+  auto scene = floor_scene();
+  auto blob  = sdf_program{};
+  parse_sdf_expression(blob, "1000*(16*x^4 + 16*y^4 + 16*z^4 + 4*x*y - 0.5)");
+  scene.sdfunctions.push_back(make_function(blob, {-0.4f, 0.7f, 0.2f}, 1));
+  auto bar    = sdf_program{};
+  auto box    = make_node(sdf_type::box);
+  box.size    = {0.1f, 0.5f, 0.1f};
+  auto twist  = make_node(sdf_type::op_twist);
+  twist.value = 3;
+  twist.left  = add_transform(bar, add_node(bar, box),
+       {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0.05f, 0.25f, 0.05f}});
+  add_node(bar, twist);
+  scene.sdfunctions.push_back(make_function(bar, {0.5f, 0.8f, -0.3f}, 2));
   check_estimators_agree(scene, 3);
 }
 
