@@ -134,14 +134,22 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
   auto count      = program.nodes.size();
   auto primitives = size_t{0};
   for (auto& node : program.nodes) primitives += is_primitive(node.type);
+  // Expressions have few primitives or none: their operands are counted as
+  // about one per 16 math clauses (a circle or a capsule of the Prospero
+  // model is 8 to 20), and functions that are no distance bound go 2 levels
+  // deeper: their tracer steps by the bounds of the cells (smaller cells,
+  // tighter bounds, shorter tapes to bound). An 8,000-clause text slab at
+  // 240 px, 1 spp: depth 4 (as CSG) 3.6 s, 5: 2.0 s, 6: 1.5 s, 7: 1.5 s.
+  primitives = std::max(primitives, count / 16);
   if ((int)count <= params.leaf_nodes || is_empty(box) || !is_finite(box))
     return field;
   // Cubic cells (a flat object would get flat cells, split for nothing
   // along its thin axis): the root is the box grown to a cube.
-  auto half = max(box.max - box.min) * 0.5f;
-  field.box = {center(box) - half, center(box) + half};
-  auto max_depth =
-      params.max_depth >= 0 ? params.max_depth : field_depth(primitives, 1);
+  auto half      = max(box.max - box.min) * 0.5f;
+  field.box      = {center(box) - half, center(box) + half};
+  auto max_depth = params.max_depth >= 0
+                       ? params.max_depth
+                       : field_depth(primitives, field.distance ? 1 : 3);
   auto max_bytes = params.max_bytes > 0 ? params.max_bytes
                                         : std::clamp(count * 16384,
                                               field_min_bytes, field_max_bytes);

@@ -18,9 +18,9 @@ void init_field_bounds(trace_object& object) {
 
 namespace {
 
-// Fraction of the smallest cell by which locate() looks past the point it
-// is given, so that a point on a face (where the last region ended) finds
-// the cell the ray enters, not the one it leaves.
+// Fraction of a cell by which locate() looks past a point that lies on the
+// cell's exit face (where the last region ended), so that it finds the cell
+// the ray enters, not the one it leaves.
 inline constexpr float field_probe_fraction = 1e-4f;
 
 // The object's field along one ray, as segment_trace() wants it (see the
@@ -30,40 +30,50 @@ struct field_ray {
   const sdf_field* field = nullptr;
   ray3f            ray   = {};
   segment_region   whole = {};  // the whole tape over the object's stretch
-  float            probe = 0;   // see field_probe_fraction (t units)
   mutable int      cell  = invalidid;
   mutable bbox3f   box   = {};
 
-  // The leaf's clauses, or the whole tape's for invalidid.
+  // The only reads of the octree's cells.
+  const sdf_cell&   leaf(int region) const { return field->cells[region]; }
   const sdf_clause* begin(int region) const {
     if (region < 0) return field->full.clauses.data();
-    return field->clauses.data() + field->cells[region].begin;
+    return field->clauses.data() + leaf(region).begin;
   }
   const sdf_clause* end(int region) const {
     if (region < 0) return begin(region) + field->full.clauses.size();
-    return begin(region) + field->cells[region].count;
+    return begin(region) + leaf(region).count;
   }
   bool is_constant(int region) const {
-    return region >= 0 && field->cells[region].count == 0;
+    return region >= 0 && leaf(region).count == 0;
+  }
+
+  // The leaf at the ray point t and where the ray leaves its box.
+  int find(float t, bbox3f& leaf_box, float& exit) const {
+    auto index = find_sdf_cell(*field, ray_point(ray, t), leaf_box);
+    exit       = flt_max;
+    for (auto a = 0; a < 3; a++) {
+      auto d = at(ray.d, a);
+      if (d == 0) continue;
+      auto plane = d > 0 ? at(leaf_box.max, a) : at(leaf_box.min, a);
+      exit       = std::min(exit, (plane - at(ray.o, a)) / d);
+    }
+    return index;
   }
 
   segment_region locate(float t) const {
     if (field->cells.empty()) return whole;
     auto leaf_box = bbox3f{};
-    auto index    = find_sdf_cell(*field, ray_point(ray, t + probe), leaf_box);
-    if (index < 0) return whole;
-    cell      = index;
-    box       = leaf_box;
-    auto exit = flt_max;
-    for (auto a = 0; a < 3; a++) {
-      auto d = at(ray.d, a);
-      if (d == 0) continue;
-      auto plane = d > 0 ? at(box.max, a) : at(box.min, a);
-      exit       = std::min(exit, (plane - at(ray.o, a)) / d);
+    auto exit     = 0.0f;
+    auto index    = find(t, leaf_box, exit);
+    if (index >= 0 && !(exit > t)) {
+      auto probe = max(size(leaf_box)) * field_probe_fraction / length(ray.d);
+      index      = find(t + probe, leaf_box, exit);
     }
-    auto& leaf = field->cells[index];
-    return {index, std::min(exit, whole.t_exit), leaf.range,
-        leaf.lipschitz * length(ray.d)};
+    if (index < 0) return whole;
+    cell = index;
+    box  = leaf_box;
+    return {index, std::min(exit, whole.t_exit), leaf(index).range,
+        leaf(index).lipschitz * length(ray.d)};
   }
 
   float value(int region, float t) const {
@@ -71,14 +81,14 @@ struct field_ray {
   }
 
   vec2f value_slope(int region, float t) const {
-    if (is_constant(region)) return {field->cells[region].bound, 0};
+    if (is_constant(region)) return {leaf(region).bound, 0};
     auto f = eval_sdf_dual(
         field->full, begin(region), end(region), ray_point(ray, t));
     return {f.v, dot(gradient(f), ray.d)};
   }
 
   segment_bound bound(int region, float t0, float t1) const {
-    if (is_constant(region)) return {field->cells[region].range, 0};
+    if (is_constant(region)) return {leaf(region).range, 0};
     auto a = ray_point(ray, t0), b = ray_point(ray, t1);
     auto piece = bbox3f{min(a, b), max(a, b)};
     // A simplified tape holds inside its cell only: keep the piece there
@@ -105,10 +115,6 @@ march_result trace_field(const trace_object& object, const march_params& params,
   function.ray   = local;
   function.whole = {invalidid, t1, object.whole_range,
       object.whole_lipschitz * length(local.d)};
-  if (!field.cells.empty()) {
-    auto smallest  = max(size(field.box)) / (float)(1 << field.depth);
-    function.probe = smallest * field_probe_fraction / length(local.d);
-  }
   return segment_trace(function, t0, t1, cutoff, params, hit_min);
 }
 
