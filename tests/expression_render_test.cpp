@@ -351,3 +351,21 @@ TEST_CASE("expressions: an unbounded surface is refused, asking for bounds") {
         "sin(3*x)*cos(3*y) + sin(3*y)*cos(3*z) + sin(3*z)*cos(3*x)"})js");
   CHECK(coverage(render_text(bounded, accel_type::bvh)) > 0.1);
 }
+
+TEST_CASE("expressions: the examples load and show their surfaces") {
+  for (auto name :
+      {"gyroid_lattice", "twisted_columns", "iq_repeat", "slab_text"}) {
+    INFO(name);
+    auto scene        = load_scene(std::string{IMPLICIT_SOURCE_DIR} +
+                                   "/examples/expressions/" + name + ".json");
+    auto params       = trace_params{};
+    params.camera     = find_camera(scene, "");
+    params.resolution = 24;
+    params.samples    = 1;
+    params.shader     = shader_type::implicit_normal;
+    auto context      = make_render_context(std::move(scene), params);
+    auto image        = image_data{};
+    render_image(*context, params, image);
+    CHECK(coverage(image) > 0.3);
+  }
+}
