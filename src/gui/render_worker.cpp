@@ -60,6 +60,21 @@ static double elapsed(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
+image_data view_image(const render_state& state, int view) {
+  if (view <= 0) return output_image(state.buffer, state.params);
+  auto aov   = (aov_type)(view - 1);
+  auto layer = average_layer(state.buffer, aov);
+  auto image = make_image(state.width, state.height);
+  auto step  = layer.channels.size();
+  for (size_t idx = 0; idx < image.pixels.size(); idx++) {
+    auto v     = layer.values.data() + idx * step;
+    auto color = step == 1 ? vec3f{v[0], v[0], v[0]} : vec3f{v[0], v[1], v[2]};
+    if (aov == aov_type::normal) color = color * 0.5f + 0.5f;
+    image.pixels[idx] = {color.x, color.y, color.z, 1};
+  }
+  return image;
+}
+
 // Preview, then passes until all samples are done or a newer job arrives.
 static void render_job_passes(
     render_worker& worker, const render_job& job, int64_t id) {
@@ -70,15 +85,15 @@ static void render_job_passes(
     auto state   = make_render_state(context, preview, job.camera);
     auto start   = std::chrono::steady_clock::now();
     if (!render_step_cancellable(context, state, worker.latest, id)) return;
-    publish(worker, id, output_image(state.buffer, preview), state.samples,
-        true, elapsed(start));
+    publish(worker, id, view_image(state, job.view), state.samples, true,
+        elapsed(start));
   }
   auto state = make_render_state(context, params, job.camera);
   while (state.samples < params.samples) {
     auto start = std::chrono::steady_clock::now();
     if (!render_step_cancellable(context, state, worker.latest, id)) return;
-    publish(worker, id, output_image(state.buffer, params), state.samples,
-        false, elapsed(start));
+    publish(worker, id, view_image(state, job.view), state.samples, false,
+        elapsed(start));
   }
 }
 

@@ -45,7 +45,13 @@ trace_params preview_params(const trace_params& params);
 struct render_job {
   trace_params params = {};
   camera_data  camera = {};
+  int          view   = 0;  // 0: the image; k: the layer of aov_type k - 1
 };
+
+// What a view shows of a render: its image (denoised when asked), or one
+// AOV layer as colours (one channel as grey, normals mapped from [-1, 1] to
+// [0, 1]; alpha 1). The job's params must ask for the layer.
+image_data view_image(const render_state& state, int view);
 
 // An image finished by the worker.
 struct render_update {

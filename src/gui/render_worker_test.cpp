@@ -198,3 +198,25 @@ TEST_CASE("render_worker: a new job cancels the running one") {
   uncapped.march.max_iterations = params.march.max_iterations;
   CHECK_FALSE(same_pixels(last.image, render_cli(*context, uncapped, moved)));
 }
+
+TEST_CASE("render worker: views show the image or one AOV layer") {
+  auto params       = trace_params{};
+  params.resolution = 24;
+  params.samples    = 2;
+  params.aovs       = aov_bit(aov_type::normal) | aov_bit(aov_type::depth);
+  auto context      = load_example(params);
+  auto state        = make_render_state(
+             *context, params, context->scene.cameras[params.camera]);
+  REQUIRE(render_step(*context, state, params.samples, {}));
+  CHECK(same_pixels(view_image(state, 0), get_image(state)));
+  auto normal = average_layer(state.buffer, aov_type::normal);
+  auto depth  = average_layer(state.buffer, aov_type::depth);
+  auto shown  = view_image(state, 1 + (int)aov_type::normal);
+  auto gray   = view_image(state, 1 + (int)aov_type::depth);
+  for (size_t idx = 0; idx < shown.pixels.size(); idx++) {
+    CHECK(shown.pixels[idx].x == normal.values[idx * 3] * 0.5f + 0.5f);
+    CHECK(shown.pixels[idx].z == normal.values[idx * 3 + 2] * 0.5f + 0.5f);
+    CHECK(gray.pixels[idx].y == depth.values[idx]);
+    CHECK(gray.pixels[idx].w == 1);
+  }
+}

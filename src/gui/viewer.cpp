@@ -13,6 +13,7 @@
 #include <backends/imgui_impl_opengl3.h>
 #include <imgui.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -192,12 +193,16 @@ struct viewer_state {
   bool                     has_image = false;
   display_texture          texture   = {};
   std::string              message   = "";  // result of the save button
+  int view = 0;  // 0: the image; k: the layer of aov_type k - 1
 };
 
-// Post the current parameters and camera as a new job.
+// Post the current parameters and camera as a new job (with the layer of
+// the view).
 static void restart(viewer_state& state, render_worker& worker) {
+  auto params = state.params;
+  if (state.view > 0) params.aovs |= aov_bit((aov_type)(state.view - 1));
   state.job = restart_render(
-      worker, {state.params, state.cameras[state.params.camera]});
+      worker, {params, state.cameras[state.params.camera], state.view});
 }
 
 // Whether the image on screen has all the samples of the newest job.
@@ -285,6 +290,17 @@ static bool draw_options(render_settings& settings, render_option_stage stage) {
   return edited;
 }
 
+// The view combo: the image or one AOV layer; returns whether it changed.
+static bool draw_view(viewer_state& state) {
+  auto names = std::vector<std::string>{"image"};
+  names.insert(names.end(), aov_type_names.begin(), aov_type_names.end());
+  auto choice = combo_names("view", names, names[state.view]);
+  if (choice.empty()) return false;
+  state.view =
+      (int)(std::find(names.begin(), names.end(), choice) - names.begin());
+  return true;
+}
+
 // Render settings: the camera, then the table's; returns whether any
 // changed.
 static bool draw_render_settings(viewer_state& state) {
@@ -345,9 +361,9 @@ static bool draw_panel(viewer_state& state, const viewer_params& viewer,
   if (state.has_image)
     ImGui::Text("%d x %d, %.3f s/pass", shown.image.width, shown.image.height,
         shown.seconds);
-  auto edited = false;
+  auto edited = draw_view(state);
   if (ImGui::CollapsingHeader("render", ImGuiTreeNodeFlags_DefaultOpen))
-    edited = draw_render_settings(state);
+    edited |= draw_render_settings(state);
   if (ImGui::CollapsingHeader("tonemap", ImGuiTreeNodeFlags_DefaultOpen)) {
     auto settings            = render_settings{};
     settings.params.exposure = state.exposure;
