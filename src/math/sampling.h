@@ -68,7 +68,6 @@ inline vec3f sample_sphere(vec2f ruv) {
   auto phi = 2 * pif * ruv.x;
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
-inline float sample_sphere_pdf(vec3f) { return 1 / (4 * pif); }
 
 // Cosine-weighted direction in the hemisphere around `normal`.
 inline vec3f sample_hemisphere_cos(vec3f normal, vec2f ruv) {
@@ -127,10 +126,6 @@ inline int sample_discrete(const std::vector<float>& cdf, float r) {
   auto idx = (int)(std::upper_bound(cdf.data(), cdf.data() + cdf.size(), r) -
                    cdf.data());
   return clamp(idx, 0, (int)cdf.size() - 1);
-}
-inline float sample_discrete_pdf(const std::vector<float>& cdf, int idx) {
-  if (idx < 0 || idx >= (int)cdf.size()) return 0;
-  return (idx == 0 ? cdf[0] : cdf[idx] - cdf[idx - 1]) / cdf.back();
 }
 
 // Uniform integer in [0, size).
