@@ -159,3 +159,46 @@ TEST_CASE("ysdf: expressions, .vm files and the types table") {
   CHECK(!std::filesystem::exists(dir / "a.obj"));
   CHECK(!std::filesystem::exists(dir / "a.vdb"));
 }
+
+TEST_CASE("ysdf: --shape reads primitives as scene files do") {
+  auto dir  = test_dir("ysdf_shape");
+  auto out  = (dir / "a.vdb").string();
+  auto bake = [&](const std::string& shape) {
+    return run_ysdf("bake " + out + " --voxel 0.1 --shape \"" + shape + "\"");
+  };
+  // The JSON keys and the table's ranges and cross checks, with the scene
+  // loader's messages.
+  auto result = bake("capsule radius=0.2 height=-1");
+  CHECK(result.status == 1);
+  CHECK(result.output ==
+        "ysdf: --shape \"capsule radius=0.2 height=-1\": height: must be > 0, "
+        "found -1\n");
+  result = bake("box size=1,1,1");
+  CHECK(result.output ==
+        "ysdf: --shape \"box size=1,1,1\": size: unknown key for type "
+        "\"box\" (valid keys: whd)\n");
+  result = bake("box whd=1,1");
+  CHECK(result.output.find("whd") != std::string::npos);
+  CHECK(result.status == 1);
+  result = bake("sphere radius=one");
+  CHECK(result.output.find("--shape \"sphere radius=one\": radius:") !=
+        std::string::npos);
+  result = bake("sphere");
+  CHECK(result.output ==
+        "ysdf: --shape \"sphere\": radius: missing required parameter\n");
+  result = bake("union radius=1");
+  CHECK(result.output.find("unknown type \"union\"") != std::string::npos);
+  result = bake("sphere radius=1 frame=1");
+  CHECK(result.output ==
+        "ysdf: --shape \"sphere radius=1 frame=1\": frame: unknown key for "
+        "type \"sphere\" (valid keys: radius)\n");
+  result = bake("sphere radius=1 at=1,2");
+  CHECK(result.output ==
+        "ysdf: --shape \"sphere radius=1 at=1,2\": at: needs 3 numbers x,y,z, "
+        "found '1,2'\n");
+  CHECK(!std::filesystem::exists(out));
+  result = bake("box whd=0.4,0.6,0.8 at=0.1,0,0");
+  INFO(result.output);
+  CHECK(result.status == 0);
+  CHECK(std::filesystem::exists(out));
+}

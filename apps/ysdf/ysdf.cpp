@@ -19,7 +19,9 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -182,34 +184,32 @@ void run_info(const std::string& filename, bool binary, bool text) {
 // BAKE
 // -----------------------------------------------------------------------------
 
-// One shape of the command line: "TYPE key=value ..." with keys radius,
-// radius2, height, thickness, size=x,y,z and at=x,y,z (where the shape's
-// local origin goes); a leading '-' subtracts it.
+// One shape of the command line: "TYPE key=value ...", a primitive with
+// the JSON keys of scene files (size=x,y,z for arrays), read and checked
+// by the scene loader (parse_primitive_text), and at=x,y,z (where the
+// shape's local origin goes); a leading '-' subtracts it.
 struct shape_spec {
-  sdf_node node     = {};
-  vec3f    at       = {0, 0, 0};
-  bool     subtract = false;
+  sdf_program program  = {};
+  vec3f       at       = {0, 0, 0};
+  bool        subtract = false;
 };
 
-float parse_float(const std::string& text, const std::string& spec) {
-  try {
-    auto used  = size_t{0};
-    auto value = std::stof(text, &used);
-    if (used == text.size() && std::isfinite(value)) return value;
-  } catch (const std::exception&) {}
-  throw io_error("--shape \"" + spec + "\": '" + text + "' is not a number");
-}
-
-vec3f parse_vec3(const std::string& text, const std::string& spec) {
+vec3f parse_at(const std::string& text, const std::string& source) {
   auto parts = std::vector<std::string>{};
   auto item  = std::string{};
   auto in    = std::istringstream(text);
   while (std::getline(in, item, ',')) parts.push_back(item);
+  auto at = vec3f{0, 0, 0};
+  for (auto k = 0; k < 3 && parts.size() == 3; k++) {
+    auto end    = (char*)nullptr;
+    (&at.x)[k]  = std::strtof(parts[k].c_str(), &end);
+    auto finite = std::isfinite((&at.x)[k]);
+    if (parts[k].empty() || *end != 0 || !finite) parts.clear();
+  }
   if (parts.size() != 3)
     throw io_error(
-        "--shape \"" + spec + "\": '" + text + "' needs 3 values x,y,z");
-  return {parse_float(parts[0], spec), parse_float(parts[1], spec),
-      parse_float(parts[2], spec)};
+        source + ": at: needs 3 numbers x,y,z, found '" + text + "'");
+  return at;
 }
 
 shape_spec parse_shape(const std::string& spec) {
@@ -217,48 +217,26 @@ shape_spec parse_shape(const std::string& spec) {
   auto in    = std::istringstream(spec);
   for (auto word = std::string{}; in >> word;) words.push_back(word);
   if (words.empty()) throw io_error("--shape: empty shape");
-  auto shape = shape_spec{};
-  auto type  = words[0];
+  auto source = "--shape \"" + spec + "\"";
+  auto shape  = shape_spec{};
+  auto type   = words[0];
   if (!type.empty() && type[0] == '-') {
     shape.subtract = true;
     type           = type.substr(1);
   }
-  auto found = false;
-  for (auto i = 0; i < (int)sdf_type_names.size(); i++) {
-    if (sdf_type_names[i] == type && is_primitive((sdf_type)i)) {
-      shape.node.type = (sdf_type)i;
-      found           = true;
-    }
-  }
-  if (!found) {
-    auto names = std::string{};
-    for (auto i = 0; i < (int)sdf_type_names.size(); i++)
-      if (is_primitive((sdf_type)i)) names += " " + sdf_type_names[i];
-    throw io_error("--shape \"" + spec + "\": unknown type '" + type +
-                   "'; types:" + names);
-  }
+  auto values = std::vector<std::pair<std::string, std::string>>{};
   for (auto i = size_t{1}; i < words.size(); i++) {
     auto eq = words[i].find('=');
     if (eq == std::string::npos)
-      throw io_error(
-          "--shape \"" + spec + "\": '" + words[i] + "' is not key=value");
+      throw io_error(source + ": '" + words[i] + "' is not key=value");
     auto key = words[i].substr(0, eq), value = words[i].substr(eq + 1);
-    if (key == "radius")
-      shape.node.radius = parse_float(value, spec);
-    else if (key == "radius2")
-      shape.node.radius2 = parse_float(value, spec);
-    else if (key == "height")
-      shape.node.height = parse_float(value, spec);
-    else if (key == "thickness")
-      shape.node.thickness = parse_float(value, spec);
-    else if (key == "size")
-      shape.node.size = parse_vec3(value, spec);
-    else if (key == "at")
-      shape.at = parse_vec3(value, spec);
-    else
-      throw io_error("--shape \"" + spec + "\": unknown key '" + key +
-                     "'; keys: radius radius2 height thickness size at");
+    if (key == "at") {
+      shape.at = parse_at(value, source);
+    } else {
+      values.push_back({key, value});
+    }
   }
+  shape.program = parse_primitive_text(type, values, source);
   return shape;
 }
 
@@ -270,7 +248,7 @@ sdf_program make_shapes_program(
   auto added      = std::vector<int>{};
   auto subtracted = std::vector<int>{};
   for (auto& shape : shapes) {
-    auto node = append_program(program, make_primitive_program(shape.node));
+    auto node = append_program(program, shape.program);
     if (shape.at != vec3f{0, 0, 0})
       node = add_transform(
           program, node, frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -shape.at});
@@ -509,8 +487,9 @@ int main(int argc, const char** argv) {
   bake_cmd->add_option("--voxel", bake.sampling.voxel, "Voxel size")
       ->required();
   bake_cmd->add_option("--shape", bake.shapes,
-      "Shape \"TYPE key=value ...\" (keys radius radius2 height thickness "
-      "size=x,y,z at=x,y,z; a leading '-' subtracts); repeat to combine");
+      "Shape \"TYPE key=value ...\": a primitive with the keys of scene "
+      "files (x,y,z for arrays; 'ysdf types' lists them) and at=x,y,z; a "
+      "leading '-' subtracts; repeat to combine");
   bake_cmd->add_option(
       "--scene", bake.scene, "Scene whose sdfunctions to bake");
   bake_cmd->add_option("--expression", bake.expression,

@@ -27,10 +27,10 @@ else
   echo "make_grids: $bunny_mesh not found, baking a stand-in bunny" >&2
   "$ysdf" bake "$here/sdfs/bunny.sdf" --voxel $voxel --pad 3 --blend 0.02 \
     --bounds -0.082 0 -0.062 0.082 0.162 0.062 \
-    --shape "ellipsoid size=0.065,0.05,0.048 at=0.012,0.05,0" \
+    --shape "ellipsoid radii=0.065,0.05,0.048 at=0.012,0.05,0" \
     --shape "sphere radius=0.032 at=-0.045,0.095,0" \
-    --shape "ellipsoid size=0.012,0.035,0.008 at=-0.05,0.125,0.016" \
-    --shape "ellipsoid size=0.012,0.035,0.008 at=-0.05,0.125,-0.016" \
+    --shape "ellipsoid radii=0.012,0.035,0.008 at=-0.05,0.125,0.016" \
+    --shape "ellipsoid radii=0.012,0.035,0.008 at=-0.05,0.125,-0.016" \
     --shape "sphere radius=0.014 at=0.07,0.055,0"
 fi
 
@@ -45,5 +45,5 @@ fi
 # Dice: a rounded cube with a sphere carved out, as an OpenVDB level set.
 "$ysdf" bake "$here/sdfs/dice.vdb" --voxel $voxel --pad 3 --blend 0.008 \
   --bounds -0.055 0 -0.055 0.055 0.11 0.055 \
-  --shape "rounded_box size=0.055,0.055,0.055 radius=0.012 at=0,0.055,0" \
+  --shape "rounded_box whd=0.055,0.055,0.055 radius=0.012 at=0,0.055,0" \
   --shape "-sphere radius=0.066 at=0,0.055,0"

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "../sdf/sdf_program.h"
 #include "scene.h"
 
 namespace implicit {
@@ -31,5 +32,15 @@ scene_data parse_scene(const std::string& text, const std::string& filename);
 scene_data parse_scene(const std::string& text, const std::string& filename,
     std::vector<std::string>& warnings, bool load_files = true,
     bool check_bounds = true);
+
+// A primitive written as a type and `key=value` texts (ysdf's --shape
+// "capsule radius=0.2 height=1"), read as the scene loader reads a
+// primitive sdfunction object: each text becomes a JSON value (a number,
+// an array of numbers for "x,y,z", else a string), and the same keys,
+// ranges and cross checks apply (the primitive table). Errors read
+// "`source`: key: problem". Returns the primitive's program.
+sdf_program parse_primitive_text(const std::string&         type,
+    const std::vector<std::pair<std::string, std::string>>& values,
+    const std::string&                                      source);
 
 }  // namespace implicit

@@ -9,6 +9,8 @@
 
 #include "scene_io_sdf.h"
 
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 
 #include "../sdf/sdf_expression.h"
@@ -16,6 +18,7 @@
 #include "../sdf/sdf_primitives.h"
 #include "../sdf/sdf_vm_io.h"
 #include "../util/error.h"
+#include "scene_io.h"
 
 namespace implicit {
 
@@ -461,6 +464,56 @@ int sdf_walk::run(const json& js, const json_place& place) {
 }
 
 }  // namespace
+
+// A command-line value as JSON: a finite number, numbers separated by
+// commas, or the text itself (which the reader then reports as not a number).
+static json text_json_value(const std::string& text) {
+  auto number = [](const std::string& item, json& value) {
+    auto end    = (char*)nullptr;
+    auto parsed = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != 0 || !std::isfinite(parsed)) return false;
+    value = parsed;
+    return true;
+  };
+  auto value = json{};
+  if (text.find(',') == std::string::npos)
+    return number(text, value) ? value : json(text);
+  auto items = json::array();
+  auto start = size_t{0};
+  while (start <= text.size()) {
+    auto end = std::min(text.find(',', start), text.size());
+    if (!number(text.substr(start, end - start), value)) return json(text);
+    items.push_back(value);
+    start = end + 1;
+  }
+  return items;
+}
+
+sdf_program parse_primitive_text(const std::string&         type,
+    const std::vector<std::pair<std::string, std::string>>& values,
+    const std::string&                                      source) {
+  auto place = json_place{source, ""};
+  auto names = std::vector<std::string>{};
+  for (auto i = 0; i < (int)sdf_type::op_union; i++)
+    names.push_back(sdf_type_names[i]);
+  auto index = parse_json_enum(place, "type", type, names);
+  // Only the parameters: a frame or a name has no place on a command line.
+  auto params = json::object();
+  for (auto& [key, text] : values) {
+    if (params.contains(key)) throw_json_error(place, key, "given twice");
+    params[key] = text_json_value(text);
+  }
+  auto valid = std::vector<std::string>{};
+  for (auto& param : primitive_params((sdf_type)index))
+    valid.push_back(param.key);
+  check_json_keys(place, params, valid, " for type \"" + type + "\"");
+  auto js      = params;
+  js["type"]   = type;
+  auto program = sdf_program{};
+  auto uris    = std::vector<std::string>{};
+  parse_sdf_object(place, js, program, {"", false}, uris);
+  return program;
+}
 
 int parse_sdf_object(const json_place& place, const json& js,
     sdf_program& program, const sdf_file_context& files,
