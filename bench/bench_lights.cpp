@@ -7,9 +7,9 @@
 // - relMSE at equal samples: mean over pixels and channels of
 //   (x - ref)^2 / (ref^2 + 0.01), averaged over the runs (it does not
 //   depend on the machine's load);
-// - CPU seconds per sample per pixel (median over the runs; process CPU
-//   time, all threads, so that other processes on the machine count less
-//   than in wall time);
+// - CPU seconds per sample per pixel (median over the runs; the process's
+//   user CPU time, by default on one thread (`--threads`), so that other
+//   processes on a shared machine count less than in wall time);
 // - relMSE at equal time: relMSE at equal samples times the CPU time of a
 //   sample, i.e. the relMSE of a render of 1 CPU-second per megapixel
 //   (both unbiased: relMSE falls as 1 / samples), and its ratio to the
@@ -29,6 +29,8 @@
 //        [--out DIR] [--baseline PATH] [--files a.json,b.json]
 //        [--images]   (also equal-time PNGs of every strategy, in --out)
 //        [--strategies 0,2]   (only these strategies of each scene)
+//        [--threads N]   (render threads of the timed runs; default 1, the
+//                         reference uses every core)
 
 #include <sys/resource.h>
 
@@ -39,7 +41,10 @@
 #include <ctime>
 #include <filesystem>
 #include <string>
+#include <thread>
 #include <vector>
+
+#include <tbb/global_control.h>
 
 #include "image/image_io.h"
 #include "math/random.h"
@@ -217,17 +222,18 @@ static std::vector<bool> unlit_pixel_mask(
   return mask;
 }
 
+// User CPU time: the kernel's share (page faults, scheduling) grows with
+// the machine's load, not with the work of a sample.
 static double process_cpu_seconds() {
-  auto t = timespec{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return t.tv_sec + 1e-9 * t.tv_nsec;
+  auto usage = rusage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + 1e-6 * usage.ru_utime.tv_usec;
 }
 
 static double children_cpu_seconds() {
   auto usage = rusage{};
   getrusage(RUSAGE_CHILDREN, &usage);
-  return usage.ru_utime.tv_sec + 1e-6 * usage.ru_utime.tv_usec +
-         usage.ru_stime.tv_sec + 1e-6 * usage.ru_stime.tv_usec;
+  return usage.ru_utime.tv_sec + 1e-6 * usage.ru_utime.tv_usec;
 }
 
 static double median(std::vector<double> values) {
@@ -292,6 +298,7 @@ struct options {
   int                      samples           = 16;
   int                      runs              = 8;
   int                      bounces           = 4;
+  int                      threads           = 1;
   bool                     images            = false;
   std::vector<int>         only              = {};  // strategy indices
 };
@@ -329,22 +336,35 @@ static image_data reference_image(const render_context& context,
 }
 
 // Equal-time images: each strategy gets the samples the first one renders
-// in its time, from the costs measured.
+// in its time, from the costs measured; saved one by one and as a strip
+// (the strategies left to right, then the reference).
 static void save_equal_time_images(const render_context& context,
     const std::vector<strategy>&                         strategies,
-    const std::vector<strategy_result>& results, const std::string& prefix) {
+    const std::vector<strategy_result>& results, const image_data& reference,
+    const std::string& prefix) {
+  auto images = std::vector<image_data>{};
   for (size_t k = 0; k < strategies.size(); k++) {
     auto params = strategies[k].params;
     params.samples =
         std::max(1, (int)std::lround(results[0].samples * results[0].cost() /
                                      results[k].cost()));
     auto seconds = 0.0;
-    auto image   = render_timed(context, params, seconds);
-    auto name    = prefix + "_" + std::to_string(k) + ".png";
-    save_image(name, image);
+    images.push_back(render_timed(context, params, seconds));
+    auto name = prefix + "_" + std::to_string(k) + ".png";
+    save_image(name, images.back());
     std::printf("(%s: %s, %d spp)\n", name.c_str(), strategies[k].name.c_str(),
         params.samples);
   }
+  images.push_back(reference);
+  auto gap   = 4;
+  auto strip = make_image(
+      (int)images.size() * (reference.width + gap) - gap, reference.height);
+  for (size_t k = 0; k < images.size(); k++)
+    for (auto j = 0; j < reference.height; j++)
+      for (auto i = 0; i < reference.width; i++)
+        pixel(strip, (int)k * (reference.width + gap) + i, j) =
+            pixel(images[k], i, j);
+  save_image(prefix + "_strip.png", strip);
 }
 
 static void bench_scene(const std::string& name, scene_data scene,
@@ -361,6 +381,9 @@ static void bench_scene(const std::string& name, scene_data scene,
               std::to_string(opts.resolution) + ".exr");
   auto mask    = unlit_pixel_mask(*context, base);
   auto results = std::vector<strategy_result>(strategies.size());
+  auto threads = tbb::global_control(
+      tbb::global_control::max_allowed_parallelism,
+      opts.threads > 0 ? opts.threads : std::thread::hardware_concurrency());
   for (size_t k = 0; k < strategies.size(); k++) {
     results[k].name    = strategies[k].name;
     results[k].samples = opts.samples;
@@ -386,7 +409,7 @@ static void bench_scene(const std::string& name, scene_data scene,
       results);
   if (opts.images)
     save_equal_time_images(
-        *context, strategies, results, opts.out + "/" + name);
+        *context, strategies, results, reference, opts.out + "/" + name);
 }
 
 // -----------------------------------------------------------------------------
@@ -396,11 +419,12 @@ static void bench_scene(const std::string& name, scene_data scene,
 // Run `program` on a scene file; returns its CPU time (-1 on failure).
 static double run_cli(const std::string& program, const std::string& scene,
     const std::string& output, int resolution, int samples, int bounces,
-    uint64_t seed) {
+    uint64_t seed, int threads) {
   auto command = "'" + program + "' --scene '" + scene + "' --output '" +
                  output + "' --resolution " + std::to_string(resolution) +
                  " --samples " + std::to_string(samples) + " --bounces " +
                  std::to_string(bounces) + " --seed " + std::to_string(seed) +
+                 " --threads " + std::to_string(threads) +
                  " --clamp 1e30 --quiet";
   auto start  = children_cpu_seconds();
   auto status = std::system(command.c_str());
@@ -418,7 +442,7 @@ static void bench_file(
                    std::to_string(opts.resolution) + ".exr";
   if (!fs::exists(reference))
     run_cli(current, file, reference, opts.resolution, opts.reference_samples,
-        opts.bounces, 99991);
+        opts.bounces, 99991, 0);
   auto ref          = load_image(reference);
   auto params       = trace_params{};
   params.resolution = opts.resolution;
@@ -433,8 +457,8 @@ static void bench_file(
   for (auto k = 0; k < 2; k++) {
     auto times = std::vector<double>{};
     for (auto r = 0; r < 3; r++)
-      times.push_back(run_cli(
-          programs[k], file, output, opts.resolution, 1, opts.bounces, 1));
+      times.push_back(run_cli(programs[k], file, output, opts.resolution, 1,
+          opts.bounces, 1, opts.threads));
     setup[k]           = median(times);
     results[k].name    = names[k];
     results[k].samples = opts.samples;
@@ -443,7 +467,7 @@ static void bench_file(
   for (auto run = 0; run < opts.runs; run++) {
     for (auto k = 0; k < 2; k++) {
       auto seconds = run_cli(programs[k], file, output, opts.resolution,
-          opts.samples, opts.bounces, 7919 * (uint64_t)(run + 1));
+          opts.samples, opts.bounces, 7919 * (uint64_t)(run + 1), opts.threads);
       results[k].seconds.push_back(seconds - setup[k]);
       auto image = load_image(output);
       results[k].errors.push_back(rel_mse(image, ref));
@@ -489,6 +513,7 @@ static options parse_options(int argc, char** argv) {
     if (arg == "--runs") opts.runs = std::max(1, std::atoi(next().c_str()));
     if (arg == "--bounces") opts.bounces = std::atoi(next().c_str());
     if (arg == "--images") opts.images = true;
+    if (arg == "--threads") opts.threads = std::atoi(next().c_str());
     if (arg == "--strategies")
       for (auto& k : split_commas(next()))
         opts.only.push_back(std::atoi(k.c_str()));
