@@ -584,19 +584,61 @@ py::array_t<T> eval_points(py_sdf& sdf, const c_array<T>& points) {
   return result;
 }
 
-py::array eval_sdf_array(py_sdf& sdf, const py::array& points) {
+// Values and exact gradients (forward-mode derivatives of the tape) at an
+// (N, 3) C-contiguous array of points: an (N, 3) array in the points' type.
+template <typename T>
+py::array_t<T> gradient_points(py_sdf& sdf, const c_array<T>& points) {
+  auto& tape   = sdf_tape_of(sdf);
+  auto  count  = (size_t)points.shape(0);
+  auto  result = py::array_t<T>({(py::ssize_t)count, (py::ssize_t)3});
+  auto  in     = points.data();
+  auto  out    = result.mutable_data();
+  {
+    py::gil_scoped_release release;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096),
+        [&](const tbb::blocked_range<size_t>& range) {
+          auto block     = std::vector<vec3f>(range.size());
+          auto values    = std::vector<float>(range.size());
+          auto gradients = std::vector<vec3f>(range.size());
+          for (auto i = range.begin(); i < range.end(); i++)
+            block[i - range.begin()] = vec3f{
+                (float)in[3 * i], (float)in[3 * i + 1], (float)in[3 * i + 2]};
+          eval_sdf_gradients(tape, block.data(), values.data(),
+              gradients.data(), block.size());
+          for (auto i = range.begin(); i < range.end(); i++) {
+            auto g         = gradients[i - range.begin()];
+            out[3 * i]     = (T)g.x;
+            out[3 * i + 1] = (T)g.y;
+            out[3 * i + 2] = (T)g.z;
+          }
+        });
+  }
+  return result;
+}
+
+// Points of shape (N, 3) as float32 or float64, for `name`.
+template <typename Call>
+py::array with_points(const py::array& points, const char* name, Call call) {
   if (points.ndim() != 2 || points.shape(1) != 3)
-    throw py::value_error(
-        "eval: expected points of shape (N, 3), found " + shape_text(points));
+    throw py::value_error(std::string(name) +
+                          ": expected points of shape (N, 3), found " +
+                          shape_text(points));
   if (py::isinstance<py::array_t<float>>(points))
-    return eval_points(sdf,
-        py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(
-            points));
-  auto doubles =
-      py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(
-          points);
-  if (!doubles) throw py::type_error("eval: the points must be numbers");
-  return eval_points(sdf, doubles);
+    return call(c_array<float>::ensure(points));
+  auto doubles = c_array<double>::ensure(points);
+  if (!doubles)
+    throw py::type_error(std::string(name) + ": the points must be numbers");
+  return call(doubles);
+}
+
+py::array gradient_sdf_array(py_sdf& sdf, const py::array& points) {
+  return with_points(points, "gradient",
+      [&](const auto& p) -> py::array { return gradient_points(sdf, p); });
+}
+
+py::array eval_sdf_array(py_sdf& sdf, const py::array& points) {
+  return with_points(points, "eval",
+      [&](const auto& p) -> py::array { return eval_points(sdf, p); });
 }
 
 // The operator table (sdf_operator_table.h) as a list of dicts: name,
@@ -801,6 +843,7 @@ PYBIND11_MODULE(_implicit, m) {
 
   py::class_<py_sdf>(m, "CompiledSDF")
       .def("eval", &eval_sdf_array, py::arg("points"))
+      .def("gradient", &gradient_sdf_array, py::arg("points"))
       .def("bounds",
           [](const py_sdf& sdf) {
             return bounds_tuple(sdf_bounds(sdf.program));

@@ -389,24 +389,38 @@ class SDF:
             self._compiled = _implicit.compile_sdf(text, "expression")
         return self._compiled
 
-    def eval(self, points):
-        """Distances at points of shape (..., 3): shape (...). float32
-        points give float32, anything else float64 (computed in float32, as
-        the renderer does)."""
+    @staticmethod
+    def _points(points, name):
+        """Points of shape (..., 3) as a contiguous (N, 3) array (float32
+        stays float32, anything else becomes float64) and their shape."""
         p = np.asarray(points)
         if p.dtype == object or not (np.issubdtype(p.dtype, np.number)
                                      or p.dtype == bool):
-            raise TypeError(f"eval: the points must be numbers, found dtype "
+            raise TypeError(f"{name}: the points must be numbers, found dtype "
                             f"{p.dtype}")
         if p.ndim == 0 or p.shape[-1] != 3:
-            raise ValueError(f"eval: expected points of shape (N, 3), found "
-                             f"{p.shape}")
+            raise ValueError(f"{name}: expected points of shape (N, 3), "
+                             f"found {p.shape}")
         if p.dtype != np.float32:
             p = p.astype(np.float64)
-        flat = np.ascontiguousarray(p.reshape(-1, 3))
-        return self.compile().eval(flat).reshape(p.shape[:-1])
+        return np.ascontiguousarray(p.reshape(-1, 3)), p.shape[:-1]
+
+    def eval(self, points):
+        """Distances at points of shape (..., 3): shape (...). float32
+        points give float32, anything else float64 (computed in float32, as
+        the renderer does). One tape, compiled once, evaluates every point,
+        many points per pass."""
+        flat, shape = self._points(points, "eval")
+        return self.compile().eval(flat).reshape(shape)
 
     __call__ = eval
+
+    def gradient(self, points):
+        """Exact gradients (forward-mode derivatives of the renderer's tape)
+        at points of shape (..., 3): shape (..., 3), not normalized; the dtype
+        rule of eval()."""
+        flat, shape = self._points(points, "gradient")
+        return self.compile().gradient(flat).reshape(shape + (3,))
 
     def bounds(self):
         """((xmin, ymin, zmin), (xmax, ymax, zmax)) of the zero set, as the

@@ -17,6 +17,7 @@
 #include "../image/image_io.h"
 #include "../sdf/sdf_grid_io.h"
 #include "../sdf/sdf_primitives.h"
+#include "../sdf/sdf_tape.h"
 #include "../util/error.h"
 
 using namespace implicit;
@@ -149,7 +150,8 @@ sdf_function_data parse_sdfunction_text(const std::string& sdfunction) {
 
 // Distance of an sdfunction at a world point.
 float world_distance(const sdf_function_data& sdf, vec3f p_world) {
-  return eval_sdf(sdf.program, transform_point(sdf.local_from_world, p_world));
+  return eval_sdf(make_sdf_tape(sdf.program),
+      transform_point(sdf.local_from_world, p_world));
 }
 
 void check_frame(const frame3f& a, const frame3f& b, float eps = 1e-6f) {

@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <thread>
 
 #include "../math/random.h"
 #include "sdf_field.h"
@@ -391,7 +392,7 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
   params.max_depth = 4;
   auto field       = make_sdf_field(
             program, {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params);
-  REQUIRE(!field.cells.empty());
+  REQUIRE((bool)field.octree);
   CHECK(!field.distance);
   auto rng    = make_rng(61);
   auto leaves = 0, finite = 0, constant = 0;
@@ -401,7 +402,7 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
     auto cell = find_sdf_cell(field, p, box);
     REQUIRE(cell >= 0);
     CHECK(inside(box, p));
-    auto& leaf  = field.cells[cell];
+    auto& leaf  = get_sdf_cell(field, cell);
     auto  value = eval_sdf(field.full, p);
     CHECK(contains(leaf.range, value));
     if (leaf.count == 0) {
@@ -422,6 +423,82 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
   CHECK(leaves > 100);
   CHECK(finite > 100);
   CHECK(constant > 100);
+}
+
+TEST_CASE("sdf bounds: jumps, poles and overflow hold their values") {
+  // Each clause over boxes that straddle its jumps, poles or overflow: every
+  // value at a point of the box lies in the box's interval (or the interval
+  // is entire).
+  auto rng     = make_rng(71);
+  auto program = sdf_program{};
+  auto x       = add_node(program, make_math(sdf_type::math_x));
+  auto y       = add_node(program, make_math(sdf_type::math_y));
+  auto cases   = std::vector<std::pair<sdf_type, bbox3f>>{
+        {sdf_type::math_mod, {{2.5f, -0.5f, 0}, {3.5f, 0.5f, 0}}},  // 0 divides
+        {sdf_type::math_mod, {{-3.5f, 0.9f, 0}, {-2.5f, 1.1f, 0}}},
+        {sdf_type::math_floor, {{-1.5f, 0, 0}, {1.5f, 0, 0}}},
+        {sdf_type::math_ceil, {{-0.5f, 0, 0}, {0.5f, 0, 0}}},
+        {sdf_type::math_round, {{0.25f, 0, 0}, {0.75f, 0, 0}}},
+        {sdf_type::math_tan, {{1.5f, 0, 0}, {1.65f, 0, 0}}},  // pole at pi/2
+        {sdf_type::math_exp, {{80, 0, 0}, {100, 0, 0}}},      // overflow
+        {sdf_type::math_cos, {{3e8f, 0, 0}, {3e8f + 64, 0, 0}}},
+        {sdf_type::math_tan, {{1e9f, 0, 0}, {1e9f + 64, 0, 0}}},
+        {sdf_type::math_atan2, {{-1, -1, 0}, {1, 1, 0}}},  // the origin
+        {sdf_type::math_div, {{-1, -1e-30f, 0}, {1, 1e-30f, 0}}},
+        {sdf_type::math_log, {{0, 0, 0}, {1e-30f, 0, 0}}},
+        {sdf_type::math_sqrt, {{-0.0f, 0, 0}, {1e-38f, 0, 0}}},
+        {sdf_type::math_acos, {{-1, 0, 0}, {-0.999f, 0, 0}}},
+  };
+  for (auto& [type, box] : cases) {
+    auto p   = program;
+    auto two = type == sdf_type::math_mod || type == sdf_type::math_atan2 ||
+               type == sdf_type::math_div;
+    add_node(p, make_math(type, x, two ? y : invalidid));
+    auto tape  = make_sdf_tape(p);
+    auto range = eval_sdf_interval(tape, box);
+    auto duals = eval_sdf_dual(tape, box);
+    for (auto k = 0; k < 2000; k++) {
+      auto q     = random_point(rng, box);
+      auto value = eval_sdf(tape, q);
+      INFO(sdf_type_names[(int)type], " at ", q.x, " ", q.y, " = ", value,
+          " in [", range.lo, ", ", range.hi, "]");
+      CHECK(contains(range, value));
+      CHECK(contains(duals.v, value));
+    }
+  }
+}
+
+TEST_CASE("sdf field: built lazily by many threads, the same as built alone") {
+  // One field evaluated by parallel threads in a random order, another
+  // built cell by cell first: the same cells, the same floats.
+  auto rng = make_rng(83);
+  for (auto trial = 0; trial < 6; trial++) {
+    auto program      = random_expression(rng, 60 + 20 * trial);
+    auto box          = bbox3f{{-1.5f, -1.5f, -1.5f}, {1.5f, 1.5f, 1.5f}};
+    auto params       = sdf_field_params{};
+    params.leaf_nodes = 4;
+    params.max_depth  = 4;
+    auto lazy         = make_sdf_field(program, box, params);
+    auto eager        = make_sdf_field(program, box, params);
+    if (!lazy.octree) continue;
+    build_sdf_field(eager);
+    auto points = std::vector<vec3f>(20000);
+    for (auto& p : points) p = random_point(rng, box);
+    auto values = std::vector<float>(points.size());
+    auto worker = [&](size_t start) {
+      for (auto i = start; i < points.size(); i += 4)
+        values[i] = eval_sdf(lazy, points[i]);
+    };
+    auto threads = std::vector<std::thread>{};
+    for (auto t = 0; t < 4; t++) threads.emplace_back(worker, (size_t)t);
+    for (auto& thread : threads) thread.join();
+    for (size_t i = 0; i < points.size(); i++) {
+      INFO("trial ", trial, " point ", i);
+      CHECK(find_sdf_cell(lazy, points[i]) >= 0);
+      CHECK(same(values[i], eval_sdf(eager, points[i])));
+    }
+    CHECK(sdf_field_cells_built(lazy) <= sdf_field_cells_built(eager));
+  }
 }
 
 }  // namespace implicit

@@ -3,8 +3,12 @@
 #include "sdf_field.h"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <cmath>
 #include <memory>
+#include <mutex>
+#include <thread>
 
 #include "sdf_primitives.h"
 
@@ -38,90 +42,215 @@ static int field_depth(size_t leaves, int extra) {
   return std::clamp((int)std::ceil(std::log2(cells)) + extra, 1, 9);
 }
 
-// Build the octree of `field` down to `max_depth`, its leaf clauses within
-// about `max_bytes`.
-static void build_octree(sdf_field& field, const sdf_field_params& params,
-    int max_depth, size_t max_bytes) {
-  // Depth first with an explicit stack, so that only the tapes along one
-  // path (8 per level) are held at a time; the 8 children of a cell share
-  // their parent's simplified tape and its budget: each child may use what
-  // its earlier siblings left, divided among it and the later ones (a cell
-  // that would not fit stays a leaf, with its larger tape).
-  struct group {
-    size_t budget = 0;  // bytes for the 8 children's leaves
-    size_t start  = 0;  // bytes stored before the first child
-  };
-  using clause_list = std::vector<sdf_ssa>;
-  struct pending {
-    int                                cell     = 0;
-    bbox3f                             box      = {};
-    int                                depth    = 0;
-    int                                octant   = 0;
-    std::shared_ptr<const clause_list> ssa      = nullptr;
-    std::shared_ptr<const group>       siblings = nullptr;
-  };
-  auto state  = sdf_simplify_state{};
-  auto stored = size_t{0};  // bytes of the leaf clauses
-  auto stack  = std::vector<pending>{
-       {0, field.box, 0, 0, std::make_shared<const clause_list>(field.full.ssa),
-           std::make_shared<const group>(group{max_bytes * 8, 0})}};
-  field.cells.push_back({});
+// -----------------------------------------------------------------------------
+// CELLS
+// -----------------------------------------------------------------------------
+
+// A cell and what building it needs. Slots live in blocks that never move,
+// so readers reach a built cell without a lock; `state` becomes `built`
+// (release) after the cell is complete, and the cell never changes after.
+enum cell_state : int { unbuilt = 0, building = 1, built = 2 };
+struct sdf_cell_slot {
+  std::atomic<int>            state   = unbuilt;
+  sdf_cell                    cell    = {};
+  bbox3f                      box     = {};
+  int                         depth   = 0;
+  int                         parent  = invalidid;
+  const std::vector<sdf_ssa>* clauses = nullptr;  // what it simplifies
+  std::unique_ptr<std::vector<sdf_ssa>> children_clauses = {};  // interior
+  int                                   children_built   = 0;
+};
+
+// Slot blocks of doubling sizes (1024, 1024, 2048, 4096, ...): slot i is in
+// block k = floor(log2(i / 1024 + 1)), so 32 blocks hold any octree and the
+// block table never grows under its readers.
+static constexpr int cell_block_bits = 10;
+static constexpr int cell_blocks     = 32;
+
+struct sdf_field_cells {
+  sdf_field_params                                     params    = {};
+  int                                                  max_depth = 0;
+  size_t                                               max_bytes = 0;
+  std::array<std::atomic<sdf_cell_slot*>, cell_blocks> blocks    = {};
+  // Guarded by `mutex`: what the cells own, their count and bytes.
+  std::mutex                                    mutex  = {};
+  std::vector<std::unique_ptr<sdf_cell_slot[]>> owned  = {};
+  std::vector<std::unique_ptr<sdf_clause[]>>    arenas = {};
+  size_t                                        free   = 0;
+  size_t                                        arena  = 0;
+  int                                           count  = 0;
+  size_t                                        bytes  = 0;
+  // Scratch space of simplifications, reused (no allocation per cell).
+  std::vector<std::unique_ptr<sdf_simplify_state>> scratch = {};
+};
+
+static sdf_cell_slot& cell_slot(const sdf_field_cells& cells, int index) {
+  auto j     = (uint32_t)index + (1u << cell_block_bits);
+  auto top   = 31 - __builtin_clz(j);
+  auto block = top - cell_block_bits;
+  return cells.blocks[block].load(std::memory_order_acquire)[j - (1u << top)];
+}
+
+// Append `count` slots (under the mutex); returns the first.
+static int add_slots(sdf_field_cells& cells, int count) {
+  auto first = cells.count;
+  for (auto i = first; i < first + count; i++) {
+    auto j     = (uint32_t)i + (1u << cell_block_bits);
+    auto top   = 31 - __builtin_clz(j);
+    auto block = top - cell_block_bits;
+    if (j == (1u << top)) {
+      cells.owned.push_back(
+          std::make_unique<sdf_cell_slot[]>(size_t{1} << top));
+      cells.blocks[block].store(
+          cells.owned.back().get(), std::memory_order_release);
+      cells.bytes += (sizeof(sdf_cell_slot) << top);
+    }
+  }
+  cells.count += count;
+  return first;
+}
+
+// Room for `count` leaf clauses in the arenas (under the mutex): arenas
+// double up to 64 Ki clauses, a larger leaf gets one of its own.
+static sdf_clause* add_clauses(sdf_field_cells& cells, size_t count) {
+  if (cells.free < count) {
+    auto size = std::max(count,
+        std::min(size_t{1} << 16, std::max(size_t{1} << 10, cells.arena * 2)));
+    cells.arenas.push_back(std::make_unique<sdf_clause[]>(size));
+    cells.arena = size;
+    cells.free  = size;
+    cells.bytes += size * sizeof(sdf_clause);
+  }
+  auto start = cells.arenas.back().get() + (cells.arena - cells.free);
+  cells.free -= count;
+  return start;
+}
+
+// What building a cell decided, before it is published.
+struct cell_build {
+  std::vector<sdf_ssa>    simplified = {};
+  std::vector<sdf_clause> clauses    = {};
+  sdf_cell                cell       = {};
+  bool                    split      = false;
+};
+
+// Simplify the clauses of slot's parent over its box and decide what the
+// cell is (no lock but to borrow scratch space: reads only the parent's
+// published clauses).
+static cell_build simplify_cell(
+    const sdf_field& field, sdf_field_cells& cells, const sdf_cell_slot& slot) {
+  auto build       = cell_build{};
+  auto state       = std::unique_ptr<sdf_simplify_state>{};
+  auto over_budget = false;
+  {
+    auto lock   = std::lock_guard{cells.mutex};
+    over_budget = cells.bytes > cells.max_bytes;
+    if (cells.scratch.empty()) {
+      state = std::make_unique<sdf_simplify_state>();
+    } else {
+      state = std::move(cells.scratch.back());
+      cells.scratch.pop_back();
+    }
+  }
+  auto range = simplify_sdf(
+      field.full, *slot.clauses, slot.box, *state, build.simplified);
+  {
+    auto lock = std::lock_guard{cells.mutex};
+    cells.scratch.push_back(std::move(state));
+  }
+  auto  size = build.simplified.size();
+  auto& cell = build.cell;
+  cell.range = range;
+  // Far from the surface: a constant bound (see sdf_cell).
+  auto far = length(slot.box.max - slot.box.min) * 0.25f;
+  if (range.lo >= far || range.hi <= -far) {
+    cell.bound = range.lo > 0 ? range.lo : range.hi;
+    return build;
+  }
+  // A leaf when small enough, deep enough, past the memory budget, or when
+  // simplification stopped working (a chain of roundings has nothing to
+  // drop: its cells would multiply copies of it).
+  auto leaf = (int)size <= cells.params.leaf_nodes ||
+              slot.depth >= cells.max_depth || over_budget ||
+              (slot.depth >= 3 && size >= slot.clauses->size());
+  if (!leaf) {
+    build.split = true;
+    return build;
+  }
+  allocate_sdf_registers(build.simplified, build.clauses);
+  cell.count = (int)build.clauses.size();
+  // A distance program keeps its global bound; others get the bound of
+  // their cell's gradient (interval derivatives of the cell's tape).
+  cell.lipschitz = field.distance
+                       ? field.full.lipschitz
+                       : eval_sdf_lipschitz(field.full, build.clauses.data(),
+                             build.clauses.data() + cell.count, slot.box);
+  return build;
+}
+
+// Build cell `index` once: the thread that claims it simplifies (outside
+// the lock) and publishes (under it); others wait for it.
+static const sdf_cell& build_cell(const sdf_field& field, int index) {
+  auto& cells = *field.octree;
+  auto& slot  = cell_slot(cells, index);
+  auto  state = (int)unbuilt;
+  if (!slot.state.compare_exchange_strong(state, building)) {
+    while (slot.state.load(std::memory_order_acquire) != built)
+      std::this_thread::yield();
+    return slot.cell;
+  }
+  auto build = simplify_cell(field, cells, slot);
+  auto lock  = std::lock_guard{cells.mutex};
+  if (build.cell.count > 0) {
+    build.cell.clauses = add_clauses(cells, build.clauses.size());
+    std::copy(build.clauses.begin(), build.clauses.end(),
+        const_cast<sdf_clause*>(build.cell.clauses));
+  } else if (build.split) {
+    // Its clauses stay until its 8 children are built from them.
+    cells.bytes += build.simplified.size() * sizeof(sdf_ssa);
+    slot.children_clauses =
+        std::make_unique<std::vector<sdf_ssa>>(std::move(build.simplified));
+    build.cell.children = add_slots(cells, 8);
+    for (auto octant = 0; octant < 8; octant++) {
+      auto& child   = cell_slot(cells, build.cell.children + octant);
+      child.box     = octant_box(slot.box, octant);
+      child.depth   = slot.depth + 1;
+      child.parent  = index;
+      child.clauses = slot.children_clauses.get();
+    }
+  }
+  slot.cell = build.cell;
+  slot.state.store(built, std::memory_order_release);
+  if (slot.parent >= 0) {
+    auto& parent = cell_slot(cells, slot.parent);
+    if (++parent.children_built == 8) {
+      cells.bytes -= parent.children_clauses->size() * sizeof(sdf_ssa);
+      parent.children_clauses.reset();
+    }
+  }
+  return slot.cell;
+}
+
+const sdf_cell& get_sdf_cell(const sdf_field& field, int cell) {
+  auto& slot = cell_slot(*field.octree, cell);
+  if (slot.state.load(std::memory_order_acquire) == built) return slot.cell;
+  return build_cell(field, cell);
+}
+
+void build_sdf_field(const sdf_field& field) {
+  if (!field.octree) return;
+  auto stack = std::vector<int>{0};
   while (!stack.empty()) {
-    auto item = std::move(stack.back());
+    auto cell = stack.back();
     stack.pop_back();
-    auto used = stored - item.siblings->start;
-    auto left =
-        item.siblings->budget > used ? item.siblings->budget - used : size_t{0};
-    auto budget     = left / (8 - item.octant);
-    auto simplified = clause_list{};
-    auto range =
-        simplify_sdf(field.full, *item.ssa, item.box, state, simplified);
-    auto  size  = simplified.size();
-    auto& cell  = field.cells[item.cell];
-    cell.range  = range;
-    field.depth = std::max(field.depth, item.depth);
-    // Far from the surface: a constant bound (see sdf_cell).
-    auto far = length(item.box.max - item.box.min) * 0.25f;
-    if (range.lo >= far || range.hi <= -far) {
-      cell.bound = range.lo > 0 ? range.lo : range.hi;
-      continue;
-    }
-    // A leaf when small enough, deep enough, when its children would not
-    // fit its budget (they hold about 3 times its clauses: operands near
-    // their boundaries are in several), or when simplification stopped
-    // working (a chain of roundings has nothing to drop: its cells would
-    // multiply copies of it).
-    auto leaf = (int)size <= params.leaf_nodes || item.depth >= max_depth ||
-                3 * size * sizeof(sdf_clause) > budget ||
-                (item.depth >= 3 && size >= item.ssa->size());
-    if (leaf) {
-      auto begin = field.clauses.size();
-      allocate_sdf_registers(simplified, field.clauses);
-      cell.begin = (int)begin;
-      cell.count = (int)(field.clauses.size() - begin);
-      // A distance program keeps its global bound; others get the bound of
-      // their cell's gradient (interval derivatives of the cell's tape).
-      cell.lipschitz =
-          field.distance
-              ? field.full.lipschitz
-              : eval_sdf_lipschitz(field.full,
-                    field.clauses.data() + cell.begin,
-                    field.clauses.data() + field.clauses.size(), item.box);
-      stored += (size_t)cell.count * sizeof(sdf_clause);
-      continue;
-    }
-    auto children = (int)field.cells.size();
-    cell.children = children;
-    field.cells.resize(field.cells.size() + 8);
-    auto shared   = std::make_shared<const clause_list>(std::move(simplified));
-    auto siblings = std::make_shared<const group>(group{budget, stored});
+    auto& c = get_sdf_cell(field, cell);
+    if (c.children < 0) continue;
     for (auto octant = 7; octant >= 0; octant--)
-      stack.push_back({children + octant, octant_box(item.box, octant),
-          item.depth + 1, octant, shared, siblings});
+      stack.push_back(c.children + octant);
   }
 }
 
-// Default budget of the leaf steps: 4 KiB per node of the program, at least
+// Default budget of the cells: 16 KiB per node of the program, at least
 // 32 MiB and at most 1 GiB.
 static constexpr size_t field_min_bytes = size_t{32} << 20;
 static constexpr size_t field_max_bytes = size_t{1} << 30;
@@ -145,30 +274,39 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
     return field;
   // Cubic cells (a flat object would get flat cells, split for nothing
   // along its thin axis): the root is the box grown to a cube.
-  auto half      = max(box.max - box.min) * 0.5f;
-  field.box      = {center(box) - half, center(box) + half};
-  auto max_depth = params.max_depth >= 0
-                       ? params.max_depth
-                       : field_depth(primitives, field.distance ? 1 : 3);
-  auto max_bytes = params.max_bytes > 0 ? params.max_bytes
-                                        : std::clamp(count * 16384,
-                                              field_min_bytes, field_max_bytes);
-  build_octree(field, params, max_depth, max_bytes);
+  auto half    = max(box.max - box.min) * 0.5f;
+  field.box    = {center(box) - half, center(box) + half};
+  field.octree = std::make_shared<sdf_field_cells>();
+  auto& cells  = *field.octree;
+  cells.params = params;
+  cells.max_depth =
+      params.max_depth >= 0 ? params.max_depth : field_depth(primitives, field.distance ? 1 : 3);
+  cells.max_bytes =
+      params.max_bytes > 0
+          ? params.max_bytes
+          : std::clamp(count * 16384, field_min_bytes, field_max_bytes);
+  add_slots(cells, 1);
+  auto& root   = cell_slot(cells, 0);
+  root.box     = field.box;
+  root.clauses = &field.full.ssa;
+  build_cell(field, 0);
+  root.clauses = nullptr;  // field.full moves with the field
   return field;
 }
 
 int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box) {
-  if (field.cells.empty() || !inside(field.box, p)) return invalidid;
+  if (!field.octree || !inside(field.box, p)) return invalidid;
   auto cell = 0;
   box       = field.box;
-  while (field.cells[cell].children >= 0) {
+  while (true) {
+    auto children = get_sdf_cell(field, cell).children;
+    if (children < 0) return cell;
     auto mid    = (box.min + box.max) * 0.5f;
     auto octant = (p.x >= mid.x ? 1 : 0) | (p.y >= mid.y ? 2 : 0) |
                   (p.z >= mid.z ? 4 : 0);
     box  = octant_box(box, octant);
-    cell = field.cells[cell].children + octant;
+    cell = children + octant;
   }
-  return cell;
 }
 
 int find_sdf_cell(const sdf_field& field, vec3f p) {
@@ -179,36 +317,46 @@ int find_sdf_cell(const sdf_field& field, vec3f p) {
 interval eval_sdf_cell_interval(
     const sdf_field& field, int cell, const bbox3f& box) {
   if (cell < 0) return eval_sdf_interval(field.full, box);
-  auto& leaf = field.cells[cell];
+  auto& leaf = get_sdf_cell(field, cell);
   if (leaf.count == 0) return leaf.range;
-  auto begin = field.clauses.data() + leaf.begin;
-  return eval_sdf_interval(field.full, begin, begin + leaf.count, box);
+  return eval_sdf_interval(
+      field.full, leaf.clauses, leaf.clauses + leaf.count, box);
 }
 
 vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step) {
   // One primitive in the object's space: its analytic gradient, or its own
   // finite differences.
+  if (!field.octree) return eval_sdf_gradient(field.full, p, step);
   auto cell  = find_sdf_cell(field, p);
   auto shape = sdf_node{};
-  if (cell >= 0 && field.cells[cell].count > 0) {
-    auto begin = field.clauses.data() + field.cells[cell].begin;
-    if (is_single_shape(
-            field.full, begin, begin + field.cells[cell].count, shape)) {
+  if (cell >= 0) {
+    auto& leaf = get_sdf_cell(field, cell);
+    if (leaf.count > 0 && is_single_shape(field.full, leaf.clauses,
+                              leaf.clauses + leaf.count, shape)) {
       auto g = vec3f{};
       if (eval_primitive_gradient(shape, p, g)) return g;
       return normalize(tetrahedral_gradient(
           [&](vec3f q) { return eval_primitive(shape, q); }, p, step));
     }
   }
-  if (cell < 0 && field.cells.empty())
-    return eval_sdf_gradient(field.full, p, step);
   return normalize(tetrahedral_gradient(
       [&](vec3f q) { return eval_sdf(field, q); }, p, step));
 }
 
 size_t sdf_field_bytes(const sdf_field& field) {
-  return sizeof(field) + field.cells.size() * sizeof(sdf_cell) +
-         sdf_tape_bytes(field.full) + field.clauses.size() * sizeof(sdf_clause);
+  auto bytes = sizeof(field) + sdf_tape_bytes(field.full);
+  if (!field.octree) return bytes;
+  auto lock = std::lock_guard{field.octree->mutex};
+  return bytes + sizeof(sdf_field_cells) + field.octree->bytes;
+}
+
+size_t sdf_field_cells_built(const sdf_field& field) {
+  if (!field.octree) return 0;
+  auto lock  = std::lock_guard{field.octree->mutex};
+  auto count = size_t{0};
+  for (auto i = 0; i < field.octree->count; i++)
+    count += cell_slot(*field.octree, i).state.load() == built;
+  return count;
 }
 
 }  // namespace implicit

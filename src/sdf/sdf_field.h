@@ -1,13 +1,22 @@
 // # implicit: fields of simplified tapes
 //
 // An sdf_field holds a program's tape and an octree over its box whose leaves
-// hold the tape simplified to their cell (sdf_simplify.h), built top-down
-// (each cell simplifies its parent's clauses, so the total work is about the
-// clause count times the depth), and evaluates a point with the tape of its
-// leaf. Each leaf also keeps the interval of the value over its cell and a
-// Lipschitz bound there, so that a tracer of functions that are no distance
-// bounds can step by |f| / L within the cell (segment tracing, Galin et al.,
-// "Segment Tracing Using Local Lipschitz Bounds", Eurographics 2020).
+// hold the tape simplified to their cell (sdf_simplify.h), and evaluates a
+// point with the tape of its leaf. Each leaf also keeps the interval of the
+// value over its cell and a Lipschitz bound there, so that a tracer of
+// functions that are no distance bounds can step by |f| / L within the cell
+// (segment tracing, Galin et al., "Segment Tracing Using Local Lipschitz
+// Bounds", Eurographics 2020).
+//
+// The octree is built lazily: a cell is simplified (from its parent's
+// clauses) the first time a point or a walk reaches it, so a render pays
+// only for the cells its rays visit, and the first pixel comes after one
+// simplification of the whole tape. Whether a cell splits depends on its own
+// clauses and depth only, so any thread, in any order, builds the same
+// octree, and evaluation gives the same floats; a cell is built once (two
+// threads that race for one keep the first result; the second's equals it).
+// Past the memory budget new cells stop splitting, which is the one place
+// where the order of visits shows (in which cells answer with a constant).
 //
 // Because a simplified tape equals the whole one inside its cell, the sphere
 // tracer's steps over a distance program stay those of the whole field: a
@@ -16,6 +25,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "sdf_simplify.h"
@@ -27,7 +37,7 @@ namespace implicit {
 struct sdf_field_params {
   int    leaf_nodes = 24;  // a cell with at most this many clauses is a leaf
   int    max_depth  = -1;  // octree levels; -1: about cbrt(nodes) cells/axis
-  size_t max_bytes  = 0;   // bytes of all leaf clauses; 0: see make_sdf_field
+  size_t max_bytes  = 0;   // bytes of the cells built; 0: see make_sdf_field
 };
 
 // One octree cell: eight children from `children`, or a leaf with its
@@ -45,24 +55,25 @@ struct sdf_field_params {
 // distance. Leaves of such programs keep the Lipschitz bound of their own
 // tape over the cell (eval_sdf_lipschitz), +inf where the function may jump.
 struct sdf_cell {
-  int      children  = invalidid;  // index of the first of 8 in `cells`
-  int      begin     = invalidid;  // leaves: first clause in `clauses`
-  int      count     = 0;          // leaves: clauses (0: the constant bound)
-  float    bound     = 0;          // leaves without clauses: that bound
-  interval range     = {};         // leaves: the values over the cell
-  float    lipschitz = flt_inf;    // leaves: bound of |gradient| there
+  int               children  = invalidid;  // index of the first of 8
+  const sdf_clause* clauses   = nullptr;    // leaves: simplified clauses
+  int               count     = 0;   // leaves: clauses (0: the constant bound)
+  float             bound     = 0;   // leaves without clauses: that bound
+  interval          range     = {};  // the values over the cell
+  float             lipschitz = flt_inf;  // leaves: bound of |gradient|
 };
+
+// The cells built so far, shared by copies of a field (sdf_field.cpp).
+struct sdf_field_cells;
 
 // A program's tape with its simplified versions over an octree of `box`.
 // Points outside the box use the whole tape. The leaves' clauses use the
-// nodes and maps of the whole tape. Plain data: copies and moves are safe.
+// nodes and maps of the whole tape. Copies share the octree (thread-safe).
 struct sdf_field {
-  sdf_tape                full     = {};    // the whole program
-  bbox3f                  box      = {};    // the root cell (empty: no octree)
-  std::vector<sdf_cell>   cells    = {};    // cells[0] is the root
-  std::vector<sdf_clause> clauses  = {};    // leaf clauses, one range per leaf
-  int                     depth    = 0;     // deepest level built
-  bool                    distance = true;  // the program is a distance bound
+  sdf_tape full = {};  // the whole program
+  bbox3f   box  = {};  // the root cell (empty: no octree)
+  std::shared_ptr<sdf_field_cells> octree   = {};    // null: no octree
+  bool                             distance = true;  // a distance bound
 };
 
 // Build a field of `program` over `box`; programs of at most
@@ -72,18 +83,21 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
     const sdf_field_params& params = {});
 
 // The leaf cell that holds `p`, or invalidid outside the octree; `box`
-// receives the leaf's box.
+// receives the leaf's box. Builds the cells on the way.
 int find_sdf_cell(const sdf_field& field, vec3f p);
 int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box);
+
+// Cell `cell` (0: the root; children of cells returned here), built if it
+// was not. The reference stays valid while the field's octree lives.
+const sdf_cell& get_sdf_cell(const sdf_field& field, int cell);
 
 // Value at a local point with the tape of cell `cell` (a leaf from
 // find_sdf_cell, or invalidid for the whole tape). Allocates nothing.
 inline float eval_sdf_cell(const sdf_field& field, int cell, vec3f p) {
   if (cell < 0) return eval_sdf(field.full, p);
-  auto& leaf = field.cells[cell];
+  auto& leaf = get_sdf_cell(field, cell);
   if (leaf.count == 0) return leaf.bound;
-  auto begin = field.clauses.data() + leaf.begin;
-  return eval_sdf(field.full, begin, begin + leaf.count, p);
+  return eval_sdf(field.full, leaf.clauses, leaf.clauses + leaf.count, p);
 }
 
 // Distance bound at a local point: exact near the surface, see sdf_cell.
@@ -100,7 +114,13 @@ interval eval_sdf_cell_interval(
 // tape of its own cell, so it is the gradient of the whole field.
 vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step);
 
-// Bytes of a whole field.
+// Build every cell of the octree (tests, benchmarks: lazy fields build
+// what they visit).
+void build_sdf_field(const sdf_field& field);
+
+// Bytes of a whole field, its cells built so far included.
 size_t sdf_field_bytes(const sdf_field& field);
+// Cells built so far (0 without an octree).
+size_t sdf_field_cells_built(const sdf_field& field);
 
 }  // namespace implicit

@@ -104,7 +104,7 @@ std::vector<std::pair<bbox3f, int>> leaf_cells(const sdf_field& field) {
   while (!stack.empty()) {
     auto [cell, box] = stack.back();
     stack.pop_back();
-    auto& c = field.cells[cell];
+    auto& c = get_sdf_cell(field, cell);
     if (c.children < 0) {
       leaves.push_back({box, cell});
       continue;
@@ -155,9 +155,10 @@ TEST_CASE("sdf tape: equals a direct evaluation and needs a small stack") {
   op.left      = left;
   op.right     = right;
   add_node(program, op);
-  CHECK(eval_sdf(program, {0, 0, 0}) == doctest::Approx(-1));
-  CHECK(eval_sdf(program, {3, 0, 0}) == doctest::Approx(2));
-  CHECK(eval_sdf(program, {2.5f, 0, 0}) == doctest::Approx(1.5f));
+  auto tape = make_sdf_tape(program);
+  CHECK(eval_sdf(tape, {0, 0, 0}) == doctest::Approx(-1));
+  CHECK(eval_sdf(tape, {3, 0, 0}) == doctest::Approx(2));
+  CHECK(eval_sdf(tape, {2.5f, 0, 0}) == doctest::Approx(1.5f));
 }
 
 TEST_CASE("sdf tape: a 10,000-level chain and a 50,000-operand union") {
@@ -210,7 +211,8 @@ TEST_CASE("sdf tape: a 10,000-level chain and a 50,000-operand union") {
       op.right = leaf;
       root     = add_node(program, op);
     }
-    CHECK(eval_sdf(program, {5, 5, 3.5f}) == doctest::Approx(0.49f));
+    CHECK(eval_sdf(make_sdf_tape(program), {5, 5, 3.5f}) ==
+          doctest::Approx(0.49f));
     auto parts = split_sdf_union(program);
     CHECK(parts.size() == 50000);
     CHECK(parts[7].nodes.size() == 2);
@@ -265,11 +267,11 @@ TEST_CASE("sdf prune: pruned programs equal the whole one in every cell") {
     params.leaf_nodes = 8;
     params.max_depth  = 3;
     auto field        = make_sdf_field(program, box, params);
-    REQUIRE(!field.cells.empty());
+    REQUIRE((bool)field.octree);
     models++;
     auto leaves = leaf_cells(field);
     for (auto& [cell, index] : leaves) {
-      auto& leaf = field.cells[index];
+      auto& leaf = get_sdf_cell(field, index);
       if (leaf.count == 0) {
         // A constant cell: a bound of the field's sign, no larger in size.
         for (auto k = 0; k < 8; k++) {
@@ -329,7 +331,7 @@ TEST_CASE("sdf prune: hard and smooth unions shrink to the near operands") {
     CHECK(leaves >= 1);
     CHECK(leaves <= 4);
     CHECK(eval_sdf(pruned, {10, 0, 0.1f}) ==
-          doctest::Approx(eval_sdf(program, {10, 0, 0.1f})));
+          doctest::Approx(eval_sdf(make_sdf_tape(program), {10, 0, 0.1f})));
   }
 }
 
@@ -357,10 +359,13 @@ TEST_CASE("sdf split: union parts keep their transforms and the rest") {
   auto parts = split_sdf_union(program);
   REQUIRE(parts.size() == 3);
   // Each part equals the whole where it is the minimum.
-  auto p = vec3f{2.5f, 2.3f, 0.1f};  // near the first sphere
-  CHECK(eval_sdf(parts[0], p) == doctest::Approx(eval_sdf(program, p)));
+  auto p     = vec3f{2.5f, 2.3f, 0.1f};  // near the first sphere
+  auto whole = make_sdf_tape(program);
+  CHECK(eval_sdf(make_sdf_tape(parts[0]), p) ==
+        doctest::Approx(eval_sdf(whole, p)));
   auto q = vec3f{0.1f, 2.2f, 0};  // near the second sphere
-  CHECK(eval_sdf(parts[1], q) == doctest::Approx(eval_sdf(program, q)));
+  CHECK(eval_sdf(make_sdf_tape(parts[1]), q) ==
+        doctest::Approx(eval_sdf(whole, q)));
   CHECK(!is_finite(sdf_bounds(parts[2])));  // the plane
   auto everywhere = sdf_program{};
   everywhere.nodes.push_back(sphere);

@@ -7,6 +7,7 @@
 
 #include "../math/random.h"
 #include "sdf_primitives.h"
+#include "sdf_tape.h"
 
 using namespace implicit;
 
@@ -139,13 +140,14 @@ TEST_CASE("sdf programs: operators") {
   round.left    = add_node(program, sphere);
   round.radius  = 0.5f;
   add_node(program, round);
-  CHECK(eval_sdf(program, {3, 0, 0}) == doctest::Approx(1.5f));
+  CHECK(eval_sdf(make_sdf_tape(program), {3, 0, 0}) == doctest::Approx(1.5f));
   auto onion      = make_node(sdf_type::op_onion);
   onion.left      = root_node(program);
   onion.thickness = 0.1f;
   add_node(program, onion);
-  CHECK(eval_sdf(program, {0, 0, 0}) == doctest::Approx(1.4f));
-  CHECK(eval_sdf(program, {1.5f, 0, 0}) == doctest::Approx(-0.1f));
+  auto tape = make_sdf_tape(program);
+  CHECK(eval_sdf(tape, {0, 0, 0}) == doctest::Approx(1.4f));
+  CHECK(eval_sdf(tape, {1.5f, 0, 0}) == doctest::Approx(-0.1f));
 }
 
 TEST_CASE("sdf programs: bounds contain the surface and are tight") {
@@ -173,10 +175,11 @@ TEST_CASE("sdf programs: bounds contain the surface and are tight") {
     node.thickness = 0.05f;
     auto program   = make_primitive_program(node);
     auto bounds    = sdf_bounds(program);
+    auto tape      = make_sdf_tape(program);
     for (auto k = 0; k < 2000; k++) {
       auto p = vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} * 4 - 2;
       if (inside(bounds, p)) continue;
-      CHECK(eval_sdf(program, p) > 0);
+      CHECK(eval_sdf(tape, p) > 0);
     }
   }
 }
@@ -195,11 +198,12 @@ TEST_CASE("sdf programs: Lipschitz bound holds on random pairs") {
     auto lipschitz = sdf_lipschitz(program);
     REQUIRE(std::isfinite(lipschitz));
     REQUIRE(lipschitz >= 1);
+    auto tape = make_sdf_tape(program);
     for (auto k = 0; k < 5000; k++) {
       auto p = vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} * 6 - 3;
       auto q = p + (vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} - 0.5f) * 0.2f;
-      auto slope = std::abs(eval_sdf(program, p) - eval_sdf(program, q)) /
-                   distance(p, q);
+      auto slope =
+          std::abs(eval_sdf(tape, p) - eval_sdf(tape, q)) / distance(p, q);
       CHECK(slope <= lipschitz * 1.001f + 1e-4f);
     }
   }
@@ -207,12 +211,12 @@ TEST_CASE("sdf programs: Lipschitz bound holds on random pairs") {
 
 TEST_CASE("sdf programs: gradients") {
   // Analytic box gradient on a box thinner than any finite-difference step.
-  auto box     = make_node(sdf_type::box);
-  box.size     = {2, 1e-5f, 2};
-  auto program = make_primitive_program(box);
-  auto g       = eval_sdf_gradient(program, {1, 1e-5f, 1}, 1e-3f);
+  auto box  = make_node(sdf_type::box);
+  box.size  = {2, 1e-5f, 2};
+  auto tape = make_sdf_tape(make_primitive_program(box));
+  auto g    = eval_sdf_gradient(tape, {1, 1e-5f, 1}, 1e-3f);
   CHECK(g.y == doctest::Approx(1.0f));
-  g = eval_sdf_gradient(program, {1, -1e-6f, 1}, 1e-3f);
+  g = eval_sdf_gradient(tape, {1, -1e-6f, 1}, 1e-3f);
   CHECK(g.y == doctest::Approx(-1.0f));
   // Finite differences on a capped cone agree with the direction to the axis
   // on its side.
@@ -220,14 +224,15 @@ TEST_CASE("sdf programs: gradients") {
   cone.height  = 1;
   cone.radius  = 1;
   cone.radius2 = 1;  // a cylinder
-  auto cg = eval_sdf_gradient(make_primitive_program(cone), {1, 0, 0}, 1e-4f);
+  auto cg      = eval_sdf_gradient(
+           make_sdf_tape(make_primitive_program(cone)), {1, 0, 0}, 1e-4f);
   CHECK(cg.x == doctest::Approx(1.0f).epsilon(1e-3));
   // Torus analytic gradient points away from the ring.
   auto torus    = make_node(sdf_type::torus);
   torus.radius  = 1;
   torus.radius2 = 0.25f;
-  auto tg =
-      eval_sdf_gradient(make_primitive_program(torus), {0, 0.25f, 1}, 1e-4f);
+  auto tg       = eval_sdf_gradient(
+            make_sdf_tape(make_primitive_program(torus)), {0, 0.25f, 1}, 1e-4f);
   CHECK(tg.y == doctest::Approx(1.0f));
 }
 

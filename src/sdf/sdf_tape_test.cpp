@@ -104,7 +104,7 @@ TEST_CASE("sdf tape: every math clause at points") {
   auto program = sdf_program{};
   auto z       = add_node(program, make_math(sdf_type::math_z));
   add_node(program, make_math(sdf_type::math_add, z, add_const(program, 0.5f)));
-  CHECK(eval_sdf(program, {1, 2, 3}) == 3.5f);
+  CHECK(eval_sdf(make_sdf_tape(program), {1, 2, 3}) == 3.5f);
 }
 
 TEST_CASE("sdf tape: constants fold, shared clauses are computed once") {

@@ -258,7 +258,7 @@ static march_result march_object(const accel_data& accel,
 #undef IMPLICIT_SDF_MARCH
       }
       auto& field = *object.field;
-      if (field.cells.empty()) {
+      if (!field.octree) {
         auto& tape = field.full;
         return march([&](vec3f p) { return eval_sdf(tape, p); });
       }
