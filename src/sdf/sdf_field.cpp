@@ -274,17 +274,19 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
     return field;
   // Cubic cells (a flat object would get flat cells, split for nothing
   // along its thin axis): the root is the box grown to a cube.
-  auto half    = max(box.max - box.min) * 0.5f;
-  field.box    = {center(box) - half, center(box) + half};
-  field.octree = std::make_shared<sdf_field_cells>();
-  auto& cells  = *field.octree;
-  cells.params = params;
-  cells.max_depth =
-      params.max_depth >= 0 ? params.max_depth : field_depth(primitives, field.distance ? 1 : 3);
+  auto half       = max(box.max - box.min) * 0.5f;
+  field.box       = {center(box) - half, center(box) + half};
+  field.octree    = std::make_shared<sdf_field_cells>();
+  auto& cells     = *field.octree;
+  cells.params    = params;
+  cells.max_depth = params.max_depth >= 0
+                        ? params.max_depth
+                        : field_depth(primitives, field.distance ? 1 : 3);
   cells.max_bytes =
       params.max_bytes > 0
           ? params.max_bytes
           : std::clamp(count * 16384, field_min_bytes, field_max_bytes);
+  field.depth = cells.max_depth;
   add_slots(cells, 1);
   auto& root   = cell_slot(cells, 0);
   root.box     = field.box;

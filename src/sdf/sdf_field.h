@@ -72,8 +72,9 @@ struct sdf_field_cells;
 struct sdf_field {
   sdf_tape full = {};  // the whole program
   bbox3f   box  = {};  // the root cell (empty: no octree)
-  std::shared_ptr<sdf_field_cells> octree   = {};    // null: no octree
-  bool                             distance = true;  // a distance bound
+  std::shared_ptr<sdf_field_cells> octree = {};  // null: no octree
+  int  depth    = 0;     // deepest level a cell may reach (the smallest)
+  bool distance = true;  // the program is a distance bound
 };
 
 // Build a field of `program` over `box`; programs of at most

@@ -34,10 +34,12 @@ struct field_ray {
   mutable bbox3f   box   = {};
 
   // The only reads of the octree's cells.
-  const sdf_cell&   leaf(int region) const { return field->cells[region]; }
+  const sdf_cell& leaf(int region) const {
+    return get_sdf_cell(*field, region);
+  }
   const sdf_clause* begin(int region) const {
     if (region < 0) return field->full.clauses.data();
-    return field->clauses.data() + leaf(region).begin;
+    return leaf(region).clauses;
   }
   const sdf_clause* end(int region) const {
     if (region < 0) return begin(region) + field->full.clauses.size();
@@ -61,7 +63,7 @@ struct field_ray {
   }
 
   segment_region locate(float t) const {
-    if (field->cells.empty()) return whole;
+    if (!field->octree) return whole;
     auto leaf_box = bbox3f{};
     auto exit     = 0.0f;
     auto index    = find(t, leaf_box, exit);
@@ -121,9 +123,9 @@ march_result trace_field(const trace_object& object, const march_params& params,
 vec3f eval_field_gradient(const sdf_field& field, vec3f p, float step) {
   auto cell = find_sdf_cell(field, p);
   auto f    = dual<float>{};
-  if (cell >= 0 && field.cells[cell].count > 0) {
-    auto begin = field.clauses.data() + field.cells[cell].begin;
-    f = eval_sdf_dual(field.full, begin, begin + field.cells[cell].count, p);
+  if (cell >= 0 && get_sdf_cell(field, cell).count > 0) {
+    auto& leaf = get_sdf_cell(field, cell);
+    f = eval_sdf_dual(field.full, leaf.clauses, leaf.clauses + leaf.count, p);
   } else {
     f = eval_sdf_dual(field.full, p);
   }
