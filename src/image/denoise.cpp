@@ -32,6 +32,8 @@ namespace {
 constexpr int max_features = 7;
 // Rows per parallel task.
 constexpr int block_rows = 8;
+// SURE estimates are averaged over (2 sure_radius + 1)^2 pixels.
+constexpr int sure_radius = 3;
 // A depth this many times the farthest hit stands for "no hit".
 constexpr float no_hit_depth_factor = 16;
 
@@ -469,14 +471,23 @@ void visit_weights(const guide_data& guide, const weight_guide& source,
 // FILTERS
 // -----------------------------------------------------------------------------
 
+// A filtered image and per pixel the derivative of its output by its own
+// input, the weights taken as fixed: 1 / (sum of the weights), the pixel's
+// own weight being 1 (for SURE, see select_by_sure).
+struct filtered_image {
+  std::vector<vec3f> color = {};
+  std::vector<float> self  = {};
+};
+
 // Weighted mean of the neighbours of `values` with the weights of `source`:
 // the pixel's own value plus the mean of the differences, so a constant
 // image stays exactly constant.
-std::vector<vec3f> filter_mean(const guide_data& guide,
+filtered_image filter_mean(const guide_data& guide,
     const std::vector<vec3f>& values, const padded_color& planes,
     const weight_guide& source, const denoise_params& params) {
   auto width  = guide.width;
-  auto output = std::vector<vec3f>(values.size());
+  auto output = filtered_image{
+      std::vector<vec3f>(values.size()), std::vector<float>(values.size())};
   auto blocks = (guide.height + block_rows - 1) / block_rows;
   tbb::parallel_for(0, blocks, [&](int block) {
     auto y0    = block * block_rows;
@@ -495,11 +506,12 @@ std::vector<vec3f> filter_mean(const guide_data& guide,
           }
         });
     for (size_t local = 0; local < count; local++) {
-      auto p    = (size_t)y0 * width + local;
-      auto w    = sums[local];
-      auto s    = vec3f{sums[count + local], sums[2 * count + local],
+      auto p          = (size_t)y0 * width + local;
+      auto w          = sums[local];
+      auto s          = vec3f{sums[count + local], sums[2 * count + local],
           sums[3 * count + local]};
-      output[p] = w > 0 ? values[p] + s / w : values[p];
+      output.color[p] = w > 0 ? values[p] + s / w : values[p];
+      output.self[p]  = w > 0 ? 1 / w : 1;
     }
   });
   return output;
@@ -629,12 +641,13 @@ void add_regression_row(const guide_data& guide,
 // window, weighted by `source` (NFOR, Bitterli et al. 2016): features that
 // vary with the image (shading normals, albedo, depth) explain the variation
 // instead of blurring it.
-std::vector<vec3f> filter_regression(const guide_data& guide,
+filtered_image filter_regression(const guide_data& guide,
     const std::vector<vec3f>& values, const padded_color& planes,
     const weight_guide& source, const denoise_params& params) {
   auto width  = guide.width;
   auto layout = make_regression_layout(guide.nfeatures);
-  auto output = std::vector<vec3f>(values.size());
+  auto output = filtered_image{
+      std::vector<vec3f>(values.size()), std::vector<float>(values.size())};
   auto blocks = (guide.height + block_rows - 1) / block_rows;
   tbb::parallel_for(0, blocks, [&](int block) {
     auto y0      = block * block_rows;
@@ -648,16 +661,17 @@ std::vector<vec3f> filter_regression(const guide_data& guide,
               &moments[(size_t)(y - y0) * width], count, scratch.data());
         });
     for (size_t local = 0; local < count; local++) {
-      auto p    = (size_t)y0 * width + local;
-      output[p] = values[p] + solve_regression(
-                                  layout, &moments[local], count, params.ridge);
+      auto p          = (size_t)y0 * width + local;
+      output.color[p] = values[p] + solve_regression(layout, &moments[local],
+                                        count, params.ridge);
+      output.self[p]  = moments[local] > 0 ? 1 / moments[local] : 1;
     }
   });
   return output;
 }
 
 // The filter of a method.
-std::vector<vec3f> filter_values(const guide_data& guide,
+filtered_image filter_values(const guide_data& guide,
     const std::vector<vec3f>& values, const padded_color& planes,
     const weight_guide& source, const denoise_params& params) {
   switch (params.method) {
@@ -670,23 +684,13 @@ std::vector<vec3f> filter_values(const guide_data& guide,
   return {};
 }
 
-}  // namespace
-
-// -----------------------------------------------------------------------------
-// DENOISING
-// -----------------------------------------------------------------------------
-
-// Run the method: cross filtering of the halves when there are halves (each
-// half filtered with the weights of the other, so that no weight is
-// correlated with the noise it averages), else the colour with its own.
-std::vector<vec3f> denoise_image(
-    const denoise_buffers& buffers, const denoise_params& params) {
-  check_buffers(buffers);
-  if (buffers.width == 0 || buffers.height == 0) return {};
-  if (params.radius < 0 || params.patch_radius < 0)
-    throw std::invalid_argument("denoise_image: negative radius");
-  auto guide = make_guide(
-      buffers, params, params.radius, std::max(params.patch_radius, 0));
+// Run the method at the parameters' radius: cross filtering of the halves
+// when there are halves (each half filtered with the weights of the other,
+// so that no weight is correlated with the noise it averages), else the
+// colour with its own weights (always for the t-test, which compares the
+// pixels' own statistics).
+filtered_image run_filter(
+    const guide_data& guide, const denoise_params& params) {
   auto cross = !guide.half_a.empty() && params.method != denoise_method::ttest;
   if (!cross)
     return filter_values(guide, guide.color, guide.color_planes,
@@ -695,8 +699,80 @@ std::vector<vec3f> denoise_image(
       {&guide.half_b_planes, 2}, params);
   auto b = filter_values(guide, guide.half_b, guide.half_b_planes,
       {&guide.half_a_planes, 2}, params);
-  for (size_t i = 0; i < a.size(); i++) a[i] = (a[i] + b[i]) * 0.5f;
+  for (size_t i = 0; i < a.color.size(); i++) {
+    a.color[i] = (a.color[i] + b.color[i]) * 0.5f;
+    a.self[i]  = (a.self[i] + b.self[i]) * 0.5f;
+  }
   return a;
+}
+
+// Stein's unbiased risk estimate of a filtered image per pixel, summed over
+// channels: (F - c)^2 - var + 2 var dF/dc, then averaged over the valid
+// pixels of a (2 r + 1)^2 box (one pixel's estimate is very noisy).
+std::vector<float> smoothed_sure(
+    const guide_data& guide, const filtered_image& filtered, int r) {
+  auto width = guide.width, height = guide.height;
+  auto sure = std::vector<float>(filtered.color.size(), 0.0f);
+  for (size_t i = 0; i < sure.size(); i++) {
+    if (!guide.valid[i]) continue;
+    auto d  = filtered.color[i] - guide.color[i];
+    sure[i] = sum(
+        d * d - guide.variance[i] + 2 * guide.variance[i] * filtered.self[i]);
+  }
+  auto smooth = std::vector<float>(sure.size(), 0.0f);
+  tbb::parallel_for(0, height, [&](int y) {
+    for (auto x = 0; x < width; x++) {
+      auto total = 0.0f;
+      auto n     = 0;
+      for (auto j = std::max(y - r, 0); j <= std::min(y + r, height - 1); j++)
+        for (auto i = std::max(x - r, 0); i <= std::min(x + r, width - 1);
+             i++) {
+          auto q = (size_t)j * width + i;
+          if (guide.valid[q]) total += sure[q], n++;
+        }
+      smooth[(size_t)y * width + x] = n ? total / n : 0.0f;
+    }
+  });
+  return smooth;
+}
+
+// Per pixel, the candidate whose smoothed SURE is lower (Rousselle et al.,
+// "Adaptive Rendering with Non-Local Means Filtering", 2012): the wide
+// window where it averages away noise, the narrow one where the wide one
+// blurs (edges, curved shading).
+std::vector<vec3f> select_by_sure(const guide_data& guide,
+    const filtered_image& wide, const filtered_image& narrow) {
+  auto wide_sure   = smoothed_sure(guide, wide, sure_radius);
+  auto narrow_sure = smoothed_sure(guide, narrow, sure_radius);
+  auto output      = wide.color;
+  for (size_t i = 0; i < output.size(); i++)
+    if (narrow_sure[i] < wide_sure[i]) output[i] = narrow.color[i];
+  return output;
+}
+
+}  // namespace
+
+// -----------------------------------------------------------------------------
+// DENOISING
+// -----------------------------------------------------------------------------
+
+// The method at params.radius, and at params.select_radius with a
+// per-pixel choice between the two.
+std::vector<vec3f> denoise_image(
+    const denoise_buffers& buffers, const denoise_params& params) {
+  check_buffers(buffers);
+  if (buffers.width == 0 || buffers.height == 0) return {};
+  if (params.radius < 0 || params.patch_radius < 0 || params.select_radius < 0)
+    throw std::invalid_argument("denoise_image: negative radius");
+  auto guide =
+      make_guide(buffers, params, std::max(params.radius, params.select_radius),
+          std::max(params.patch_radius, 0));
+  auto wide = run_filter(guide, params);
+  if (params.select_radius == 0 || params.select_radius == params.radius)
+    return wide.color;
+  auto narrow_params   = params;
+  narrow_params.radius = params.select_radius;
+  return select_by_sure(guide, wide, run_filter(guide, narrow_params));
 }
 
 // Parse a method name.

@@ -59,10 +59,10 @@ inline const std::vector<std::string> denoise_method_names = {
 struct denoise_params {
   denoise_method method       = denoise_method::nlm;
   int            radius       = 7;  // window of (2 radius + 1)^2 pixels
-  int            patch_radius = 2;  // NL-means patch of (2 p + 1)^2 pixels
+  int            patch_radius = 1;  // NL-means patch of (2 p + 1)^2 pixels
   // NL-means strength k: colour distances are in units of k^2 times the
   // variance of the difference (Rousselle et al. 2012).
-  float strength = 0.5f;
+  float strength = 1.0f;
   // Welch t-test: |mean_p - mean_q| <= threshold sqrt(var_p + var_q).
   float ttest_threshold = 2.0f;
   // Feature distances: a neighbour whose albedo differs by albedo_sigma
@@ -73,6 +73,9 @@ struct denoise_params {
   float depth_sigma  = 0.05f;
   // Regression (nfor): ridge on the slopes, relative to the weight sum.
   float ridge = 0.01f;
+  // A second run with a window of this radius, and per pixel the run whose
+  // error estimate (SURE) is lower; 0 or radius: one run.
+  int select_radius = 2;
 };
 
 // -----------------------------------------------------------------------------

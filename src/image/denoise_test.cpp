@@ -103,7 +103,7 @@ TEST_CASE("denoise lowers the relative MSE of a noisy render") {
         rel_mse(denoise_image(render.buffers, params), render.truth);
     INFO(denoise_method_names[(int)method], " noisy ", noisy, " denoised ",
         denoised);
-    CHECK(denoised * 4 < noisy);
+    CHECK(denoised * 10 < noisy);
   }
 }
 
@@ -193,27 +193,36 @@ TEST_CASE("denoise keeps a constant image constant") {
 }
 
 TEST_CASE("denoise does not spread NaN or inf") {
-  auto  render              = make_synthetic(40, 32, 0.5f, 16, 9);
-  auto  clean               = denoise_image(render.buffers);
-  auto& buffers             = render.buffers;
-  auto  nan                 = std::numeric_limits<float>::quiet_NaN();
-  auto  inf                 = std::numeric_limits<float>::infinity();
-  auto  bad                 = (size_t)10 * 40 + 12;
-  buffers.color[bad]        = {nan, 0, 0};
-  buffers.color_a[bad]      = {inf, 1, 1};
-  buffers.variance[bad + 1] = {0, inf, 0};
-  buffers.albedo[bad + 2]   = {nan, nan, nan};
-  buffers.depth[bad + 3]    = nan;
+  // Non-finite colours (and a non-finite variance) make pixels missing:
+  // every output is finite, a missing pixel is filled from its neighbours,
+  // and the others change by less than the noise (they lose a neighbour).
+  auto render              = make_synthetic(40, 32, 0.5f, 16, 9);
+  auto broken              = render.buffers;
+  auto nan                 = std::numeric_limits<float>::quiet_NaN();
+  auto inf                 = std::numeric_limits<float>::infinity();
+  auto bad                 = (size_t)10 * 40 + 14;
+  broken.color[bad]        = {nan, 0, 0};
+  broken.color_a[bad]      = {inf, 1, 1};
+  broken.variance[bad + 1] = {0, inf, 0};
+  broken.albedo[bad + 2]   = {nan, nan, nan};
+  broken.depth[bad + 3]    = nan;
   for (auto method : all_methods) {
     auto params   = denoise_params{};
     params.method = method;
-    auto denoised = denoise_image(buffers, params);
+    auto clean    = denoise_image(render.buffers, params);
+    auto denoised = denoise_image(broken, params);
     auto finite   = true;
-    for (auto& p : denoised) finite = finite && isfinite(p);
-    INFO(denoise_method_names[(int)method]);
+    auto change   = 0.0f;
+    for (size_t i = 0; i < denoised.size(); i++) {
+      finite = finite && isfinite(denoised[i]);
+      if (i < bad || i > bad + 3)
+        change = std::max(change, max(abs(denoised[i] - clean[i])));
+    }
+    INFO(denoise_method_names[(int)method], " change ", change);
     CHECK(finite);
-    // The missing pixel is filled from its neighbours.
-    CHECK(distance(denoised[bad], render.truth[bad]) < 0.2f);
+    CHECK(change < 0.08f);
+    for (auto i = bad; i < bad + 2; i++)
+      CHECK(max(abs(denoised[i] - render.truth[i])) < 0.15f);
   }
 }
 
@@ -233,7 +242,7 @@ TEST_CASE("denoise works without optional buffers") {
       auto denoised = rel_mse(denoise_image(buffers, params), render.truth);
       INFO(denoise_method_names[(int)method], " noisy ", noisy, " denoised ",
           denoised);
-      CHECK(denoised * 1.5 < noisy);
+      CHECK(denoised * 3 < noisy);
     }
   }
 }
