@@ -1,20 +1,18 @@
 // # bench_denoise: relative MSE and cost of the denoisers on rendered scenes
 //
 // For each scene: a reference of --reference-samples spp (cached in --out),
-// a render of --samples spp made of --batches renders with their own seeds
-// (their means give the colour, the even and odd batches the two half
-// buffers, their spread the variance of the mean), the features from the
-// debug shaders (color: albedo, normal, position: depth; --feature-samples
-// spp each), and a render of 16 x --samples spp. Printed per scene: the
-// relMSE (mean over pixels and channels of (x - ref)^2 / (ref^2 + 0.01)) of
-// the raw render, of each denoiser, and of the 16x render; the CPU time of
-// the render and of each denoiser per megapixel (process CPU time, all
+// a render of --samples spp that keeps the per-pixel statistics and
+// features (render_buffer: half buffers, variance, albedo, normal, depth of
+// the first non-specular hit), and a render of 16 x --samples spp. Printed per
+// scene: the relMSE (mean over pixels and channels of (x - ref)^2 / (ref^2 +
+// 0.01)) of the raw render, of each denoiser, and of the 16x render; the CPU
+// time of the render and of each denoiser per megapixel (process CPU time, all
 // threads: other processes on the machine count less than in wall time).
 // With --images, a strip per scene in --out: noisy | each denoiser | 16x |
 // reference, three per row.
 //
 // Usage: bench_denoise [--resolution N] [--reference-samples N]
-//        [--samples N] [--batches N] [--feature-samples N] [--out DIR]
+//        [--samples N] [--out DIR]
 //        [--files a.json,b.json] [--methods nlm,nfor,ttest] [--images]
 //        [--radius N] [--strength K]
 // --methods takes variants: a method, then :key=value settings (see
@@ -40,8 +38,6 @@ struct bench_options {
   int                      resolution        = 128;
   int                      reference_samples = 16384;
   int                      samples           = 64;
-  int                      batches           = 16;
-  int                      feature_samples   = 16;
   int                      radius            = -1;  // -1: the default
   float                    strength          = -1;  // -1: the default
   std::string              out               = "denoise_bench";
@@ -114,53 +110,39 @@ static std::vector<vec3f> reference_image(const render_context& context,
   return rgb(image);
 }
 
-// The noisy render as denoiser buffers: batches with their own seeds.
+// The noisy render as denoiser buffers, from one render that keeps the
+// per-pixel statistics and features (render_buffer): mean, half buffers of
+// the even and odd samples, variance of the mean, albedo, normal, depth.
 static denoise_buffers noisy_buffers(const render_context& context,
     const trace_params& params, const bench_options& opts, double& seconds) {
-  auto per     = std::max(opts.samples / opts.batches, 1);
-  auto batches = std::vector<std::vector<vec3f>>{};
-  for (auto b = 0; b < opts.batches; b++)
-    batches.push_back(rgb(render(context, params, per, 1000 + b, seconds)));
-  auto size       = render_size(context, params);
-  auto buffers    = denoise_buffers{};
-  buffers.width   = size.x;
-  buffers.height  = size.y;
-  auto count      = batches[0].size();
-  buffers.color   = std::vector<vec3f>(count);
-  buffers.color_a = buffers.color_b = buffers.variance = buffers.color;
-  buffers.samples = std::vector<int>(count, per * opts.batches);
-  auto n          = (float)opts.batches;
-  for (size_t i = 0; i < count; i++) {
-    for (auto b = 0; b < opts.batches; b++) {
-      buffers.color[i] += batches[b][i] / n;
-      (b % 2 ? buffers.color_b : buffers.color_a)[i] += batches[b][i] / (n / 2);
-    }
-    for (auto b = 0; b < opts.batches; b++) {
-      auto d = batches[b][i] - buffers.color[i];
-      buffers.variance[i] += d * d / (n - 1) / n;
-    }
+  auto size   = render_size(context, params);
+  auto layout = buffer_layout{true, true, true, true, false};
+  auto buffer =
+      make_render_buffer({0, size.x, 0, size.y}, size.x, params.seed, layout);
+  auto start = process_cpu_seconds();
+  render_samples(context, params, context.scene.cameras.at(params.camera), 0,
+      opts.samples, buffer);
+  seconds += process_cpu_seconds() - start;
+  auto buffers   = denoise_buffers{};
+  buffers.width  = size.x;
+  buffers.height = size.y;
+  for (size_t i = 0; i < buffer.sums.size(); i++) {
+    auto n     = (float)buffer.counts[i];
+    auto evens = std::ceil(n / 2), odds = std::floor(n / 2);
+    auto sum  = xyz(buffer.sums[i]);
+    auto mean = sum / n;
+    buffers.color.push_back(mean);
+    buffers.color_a.push_back(buffer.evens[i] / evens);
+    buffers.color_b.push_back((sum - buffer.evens[i]) / odds);
+    auto var = (buffer.squares[i] / n - mean * mean) * (n / (n - 1));
+    buffers.variance.push_back(max(var, 0.0f) / n);
+    buffers.albedo.push_back(buffer.albedos[i] / n);
+    buffers.normal.push_back(buffer.normals[i] / n);
+    auto depth = buffer.depths[i];
+    buffers.depth.push_back(depth.y > 0 ? depth.x / depth.y : 0.0f);
+    buffers.samples.push_back(buffer.counts[i]);
   }
   return buffers;
-}
-
-// Albedo, normal and depth from the debug shaders.
-static void add_features(const render_context& context,
-    const trace_params& params, const bench_options& opts,
-    denoise_buffers& buffers) {
-  auto seconds  = 0.0;
-  auto shaded   = params;
-  shaded.shader = shader_type::color;
-  buffers.albedo =
-      rgb(render(context, shaded, opts.feature_samples, 7, seconds));
-  shaded.shader = shader_type::normal;
-  buffers.normal =
-      rgb(render(context, shaded, opts.feature_samples, 7, seconds));
-  for (auto& n : buffers.normal) n = n * 2 - 1;
-  shaded.shader = shader_type::position;
-  auto position = render(context, shaded, opts.feature_samples, 7, seconds);
-  auto origin   = context.scene.cameras.at(params.camera).frame.o;
-  for (auto& p : position.pixels)
-    buffers.depth.push_back(p.w > 0.5f ? distance(xyz(p) / p.w, origin) : 0.0f);
 }
 
 // Save images in a grid of three columns as one PNG, each pixel `zoom`
@@ -234,8 +216,7 @@ static void bench_file(const std::string& file, const bench_options& opts) {
              "_" + std::to_string(opts.reference_samples) + ".exr");
   auto render_seconds = 0.0;
   auto buffers        = noisy_buffers(*context, params, opts, render_seconds);
-  add_features(*context, params, opts, buffers);
-  auto high_seconds = 0.0;
+  auto high_seconds   = 0.0;
   auto high =
       rgb(render(*context, params, opts.samples * 16, 99, high_seconds));
   auto megapixels = buffers.width * buffers.height * 1e-6;
@@ -303,10 +284,6 @@ int main(int argc, const char** argv) {
         opts.reference_samples = std::atoi(next().c_str());
       else if (arg == "--samples")
         opts.samples = std::atoi(next().c_str());
-      else if (arg == "--batches")
-        opts.batches = std::atoi(next().c_str());
-      else if (arg == "--feature-samples")
-        opts.feature_samples = std::atoi(next().c_str());
       else if (arg == "--radius")
         opts.radius = std::atoi(next().c_str());
       else if (arg == "--strength")
@@ -322,7 +299,7 @@ int main(int argc, const char** argv) {
       else
         throw std::runtime_error("unknown option " + arg);
     }
-    if (opts.batches < 2) throw std::runtime_error("--batches must be >= 2");
+    if (opts.samples < 2) throw std::runtime_error("--samples must be >= 2");
     fs::create_directories(opts.out);
     auto files = opts.files;
     if (files.empty()) {

@@ -234,6 +234,7 @@ void make_features(const denoise_buffers& buffers, const denoise_params& params,
   guide.nfeatures = nf;
   guide.has_depth = !log_depth.empty();
   guide.features  = std::vector<float>(count * nf);
+  if (nf == 0) return;
   for (size_t i = 0; i < count; i++) {
     auto f = &guide.features[i * nf];
     auto k = 0;
