@@ -14,12 +14,15 @@
 // Usage: bench_denoise [--resolution N] [--reference-samples N]
 //        [--samples N] [--out DIR]
 //        [--files a.json,b.json] [--methods nlm,nfor,ttest] [--images]
-//        [--radius N] [--strength K]
+//        [--radius N] [--strength K] [--adaptive 0.05,0.02]
+// --adaptive also compares, per noise threshold, adaptive sampling (at most
+// 16 x --samples spp) with uniform sampling at equal CPU time.
 // --methods takes variants: a method, then :key=value settings (see
 // parse_variant), e.g. --methods nlm,nlm:k=1,ttest:r=9:t=2.5.
 
 #include <time.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -44,6 +47,7 @@ struct bench_options {
   std::vector<std::string> files             = {};
   std::vector<std::string> methods           = {"nlm", "nfor", "ttest"};
   bool                     images            = false;
+  std::vector<float>       adaptive          = {};  // noise thresholds
 };
 
 static double process_cpu_seconds() {
@@ -110,39 +114,48 @@ static std::vector<vec3f> reference_image(const render_context& context,
   return rgb(image);
 }
 
-// The noisy render as denoiser buffers, from one render that keeps the
-// per-pixel statistics and features (render_buffer): mean, half buffers of
-// the even and odd samples, variance of the mean, albedo, normal, depth.
-static denoise_buffers noisy_buffers(const render_context& context,
-    const trace_params& params, const bench_options& opts, double& seconds) {
+// A render of samples [0, samples) that keeps the per-pixel statistics and
+// features (render_buffer: half buffers, variance, albedo, normal, depth of
+// the first non-specular hit), adaptive when params.noise_threshold > 0; its
+// CPU seconds added to `seconds`.
+static render_buffer buffer_render(const render_context& context,
+    const trace_params& params, int samples, double& seconds) {
   auto size   = render_size(context, params);
   auto layout = buffer_layout{true, true, true, true, false};
   auto buffer =
       make_render_buffer({0, size.x, 0, size.y}, size.x, params.seed, layout);
   auto start = process_cpu_seconds();
   render_samples(context, params, context.scene.cameras.at(params.camera), 0,
-      opts.samples, buffer);
+      samples, buffer);
   seconds += process_cpu_seconds() - start;
-  auto buffers   = denoise_buffers{};
-  buffers.width  = size.x;
-  buffers.height = size.y;
-  for (size_t i = 0; i < buffer.sums.size(); i++) {
-    auto n     = (float)buffer.counts[i];
-    auto evens = std::ceil(n / 2), odds = std::floor(n / 2);
-    auto sum  = xyz(buffer.sums[i]);
-    auto mean = sum / n;
-    buffers.color.push_back(mean);
-    buffers.color_a.push_back(buffer.evens[i] / evens);
-    buffers.color_b.push_back((sum - buffer.evens[i]) / odds);
-    auto var = (buffer.squares[i] / n - mean * mean) * (n / (n - 1));
-    buffers.variance.push_back(max(var, 0.0f) / n);
-    buffers.albedo.push_back(buffer.albedos[i] / n);
-    buffers.normal.push_back(buffer.normals[i] / n);
-    auto depth = buffer.depths[i];
-    buffers.depth.push_back(depth.y > 0 ? depth.x / depth.y : 0.0f);
-    buffers.samples.push_back(buffer.counts[i]);
-  }
-  return buffers;
+  return buffer;
+}
+
+// Adaptive against uniform sampling at equal CPU time: an adaptive render
+// with `threshold` (at most 16 x --samples spp), then a uniform one of the
+// samples its CPU time buys at the rate of the uniform --samples render
+// (`seconds_per_sample`).
+static void bench_adaptive(const render_context& context, trace_params params,
+    float threshold, double seconds_per_sample, const bench_options& opts,
+    const std::vector<vec3f>& reference) {
+  params.noise_threshold = threshold;
+  auto adaptive_seconds  = 0.0;
+  auto adaptive =
+      buffer_render(context, params, opts.samples * 16, adaptive_seconds);
+  auto total = 0.0;
+  for (auto count : adaptive.counts) total += count;
+  params.noise_threshold = 0;
+  auto samples =
+      std::max(1, (int)std::lround(adaptive_seconds / seconds_per_sample));
+  auto uniform_seconds = 0.0;
+  auto uniform = buffer_render(context, params, samples, uniform_seconds);
+  auto a       = rel_mse(rgb(average_samples(adaptive)), reference);
+  auto u       = rel_mse(rgb(average_samples(uniform)), reference);
+  std::printf(
+      "  adaptive %.3f: relMSE %.5f (%.1f spp on average, %.2f CPU s); "
+      "uniform %d spp: %.5f (%.2f CPU s); %.2fx lower\n",
+      threshold, a, total / adaptive.counts.size(), adaptive_seconds, samples,
+      u, uniform_seconds, u / a);
 }
 
 // Save images in a grid of three columns as one PNG, each pixel `zoom`
@@ -215,8 +228,9 @@ static void bench_file(const std::string& file, const bench_options& opts) {
          opts.out + "/" + name + "_reference_" + std::to_string(opts.resolution) +
              "_" + std::to_string(opts.reference_samples) + ".exr");
   auto render_seconds = 0.0;
-  auto buffers        = noisy_buffers(*context, params, opts, render_seconds);
-  auto high_seconds   = 0.0;
+  auto buffers        = make_denoise_buffers(
+             buffer_render(*context, params, opts.samples, render_seconds));
+  auto high_seconds = 0.0;
   auto high =
       rgb(render(*context, params, opts.samples * 16, 99, high_seconds));
   auto megapixels = buffers.width * buffers.height * 1e-6;
@@ -245,6 +259,9 @@ static void bench_file(const std::string& file, const bench_options& opts) {
         100 * seconds / render_seconds);
     strip.push_back(denoised);
   }
+  for (auto threshold : opts.adaptive)
+    bench_adaptive(*context, params, threshold, render_seconds / opts.samples,
+        opts, reference);
   strip.push_back(high);
   strip.push_back(reference);
   // Error maps of the raw render and the first two denoisers.
@@ -296,6 +313,9 @@ int main(int argc, const char** argv) {
         opts.methods = split(next());
       else if (arg == "--images")
         opts.images = true;
+      else if (arg == "--adaptive")
+        for (auto& value : split(next()))
+          opts.adaptive.push_back(std::stof(value));
       else
         throw std::runtime_error("unknown option " + arg);
     }
