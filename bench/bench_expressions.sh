@@ -8,11 +8,14 @@
 # alternating runs, medians; then bench_trace's evaluations per camera ray
 # of both modes and the fraction of equal normals, at a quarter of the
 # resolution (its path-traced columns would take long in the reference).
+# Last, the organic model of bench/make_organic.py (about 700 clauses of exp,
+# ln, sin, division and min) at 1024 x 1024, 1 spp, normals, on 2 threads.
 #
 #   bash bench/bench_expressions.sh [runs]      (default 3 alternating pairs)
 #
 # BUILD (default build/release), OUT (default out/bench_expressions), SHAPES
-# (glyphs, default 140: 7,978 clauses), RES (default 384).
+# (glyphs, default 140: 7,978 clauses), RES (default 384), ORGANIC_RES
+# (default 1024).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${BUILD:-build/release}
@@ -50,3 +53,21 @@ echo
 # equal normals, from one run of bench_trace on the same scene.
 "$build/bench/bench_trace" --counts "" --resolution $((res / 4)) --samples 1 \
   --reference-limit 1000000 "$scene"
+
+# The organic model (bench/make_organic.py: about 700 clauses of exp, ln,
+# sin, division, min) at ORGANIC_RES (default 1024) square, 1 spp, primary
+# rays and normals, on 2 threads: wall and CPU seconds of the whole process
+# (scene load and the lazy octree included), median of $runs runs.
+/usr/bin/python3 bench/make_organic.py --output "$out"
+ores=${ORGANIC_RES:-1024}
+: > "$out/organic.txt"
+for run in $(seq "$runs"); do
+  /usr/bin/time -f "%e %U %S" -o "$out/time.txt" "$build/ypathtrace" \
+    --scene "$out/organic.json" --resolution "$ores" --samples 1 --threads 2 \
+    --quiet --shader implicit_normal --output "$out/organic.png"
+  cat "$out/time.txt" >> "$out/organic.txt"
+done
+wall=$(cut -d' ' -f1 "$out/organic.txt" | median)
+cpu=$(awk '{ print $2 + $3 }' "$out/organic.txt" | median)
+echo
+echo "organic model, ${ores}x${ores}, 1 spp, 2 threads: wall ${wall} s, CPU ${cpu} s (median of $runs)"

@@ -201,4 +201,22 @@ TEST_CASE("clean: --denoise writes the denoiser's image of the render") {
   auto image = output_image(state.buffer, params);
   CHECK(std::memcmp(final.pixels.data(), image.pixels.data(),
             image.pixels.size() * sizeof(vec4f)) == 0);
+  // --denoiser picks the method: NFOR's image of the same buffers.
+  auto nfor_out = (dir / "nfor.exr").string();
+  auto nfor     = run_command(program_path("ypathtrace") + " --scene " +
+                              example_scene() + " --output " + nfor_out +
+                              " --resolution 40 --samples 6 --quiet "
+                                  "--denoise --denoiser nfor --threads 2");
+  INFO(nfor.output);
+  REQUIRE(nfor.status == 0);
+  auto method   = denoise_params{};
+  method.method = denoise_method::nfor;
+  auto expected = denoise_image(make_denoise_buffers(state.buffer), method);
+  auto written  = load_image(nfor_out);
+  auto differs  = 0;
+  for (size_t idx = 0; idx < expected.size(); idx++) {
+    CHECK(written.pixels[idx].y == expected[idx].y);
+    differs += written.pixels[idx].y != final.pixels[idx].y;
+  }
+  CHECK(differs > (int)expected.size() / 2);
 }

@@ -425,3 +425,7 @@ def test_denoise_option(source_dir):
     assert denoised.shape == plain.shape and np.isfinite(denoised).all()
     assert not np.array_equal(denoised[..., :3], plain[..., :3])
     assert np.array_equal(denoised[..., 3], plain[..., 3])
+    nfor = im.render(path, denoise=True, denoiser="nfor", **TINY)
+    assert not np.array_equal(nfor[..., :3], denoised[..., :3])
+    with pytest.raises(ValueError, match="denoiser"):
+        im.render(path, denoise=True, denoiser="oidn", **TINY)

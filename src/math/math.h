@@ -220,10 +220,6 @@ inline vec3f transform_vector(const frame3f& f, vec3f v) {
 inline vec3f transform_direction(const frame3f& f, vec3f v) {
   return normalize(transform_vector(f, v));
 }
-// Normals transform with the inverse transpose of the linear part.
-inline vec3f transform_normal(const frame3f& f, vec3f n) {
-  return normalize(transpose(inverse(rotation(f))) * n);
-}
 inline frame3f operator*(const frame3f& a, const frame3f& b) {
   return {transform_vector(a, b.x), transform_vector(a, b.y),
       transform_vector(a, b.z), transform_point(a, b.o)};

@@ -333,7 +333,9 @@ image_data output_image(
     const render_buffer& buffer, const trace_params& params) {
   auto image = average_samples(buffer);
   if (!params.denoise) return image;
-  auto denoised = denoise_image(make_denoise_buffers(buffer));
+  auto denoise_settings   = denoise_params{};
+  denoise_settings.method = params.denoiser;
+  auto denoised = denoise_image(make_denoise_buffers(buffer), denoise_settings);
   for (size_t idx = 0; idx < image.pixels.size(); idx++) {
     auto& rgb         = denoised[idx];
     image.pixels[idx] = {rgb.x, rgb.y, rgb.z, image.pixels[idx].w};

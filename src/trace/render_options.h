@@ -40,7 +40,8 @@ enum class render_option_id {
   // clang-format off
   shader, camera, resolution, samples, bounces, clamp, seed, exposure, filmic,
   envhidden, tentfilter, noimplicitmis, mis, sampler, lightsampler, stmaxiter,
-  accel, threads, pratio, aov, noise_threshold, min_samples, time, denoise
+  accel, threads, pratio, aov, noise_threshold, min_samples, time, denoise,
+  denoiser
   // clang-format on
 };
 

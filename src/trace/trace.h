@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "../image/denoise.h"
 #include "../image/image.h"
 #include "../math/random.h"
 #include "accel.h"
@@ -72,10 +73,11 @@ struct trace_params {
   int                aovs          = 0;  // aov_bit()s of the layers to write
   // Adaptive sampling: a pixel stops once its relative error estimate is
   // below the threshold (0: off), checked from min_samples on (0: automatic).
-  float noise_threshold = 0;
-  int   min_samples     = 0;
-  float time            = 0;      // budget in seconds per image (0: none)
-  bool  denoise         = false;  // images filtered by denoise_image()
+  float          noise_threshold = 0;
+  int            min_samples     = 0;
+  float          time            = 0;  // budget in seconds per image (0: none)
+  bool           denoise         = false;  // images filtered by denoise_image()
+  denoise_method denoiser        = denoise_method::nlm;  // with this method
 };
 
 // Whether the parameters ask for an AOV.
