@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # MPI speed-up of ypathtrace on this machine (issue 23's measure):
-#  1. PAIRS alternating pairs of one process x 1 thread and 2 ranks x 1
-#     thread; prints each pair and the median speed-up (target: >= 1.8x);
+#  1. PAIRS alternating rounds of one process x 1 thread, 2 ranks x 1
+#     thread and one process x 2 threads; prints each round and the median
+#     speed-ups (target for 2 ranks: >= 1.8x);
 #  2. one run each of 1 process, 1, 2 and 4 ranks x 1 thread (4 ranks are
 #     oversubscribed on 2 cores), with the CPU seconds of every rank and of
 #     all processes (mpirun included).
@@ -28,12 +29,13 @@ out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
 echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 
-# run NAME RANKS: one render (RANKS 0: without mpirun); sets `wall`, `cpu`
-# (all processes) and `ranks_cpu` (each rank's user + system seconds).
+# run NAME RANKS [THREADS]: one render (RANKS 0: without mpirun; THREADS per
+# process, default 1); sets `wall`, `cpu` (all processes) and `ranks_cpu`
+# (each rank's user + system seconds).
 run() {
-  local name="$1" ranks="$2"
+  local name="$1" ranks="$2" threads="${3:-1}"
   rm -f "$out"/cpu.*
-  local command=("$binary" "${args[@]}" --threads 1 --quiet
+  local command=("$binary" "${args[@]}" --threads "$threads" --quiet
     --output "$out/$name.exr")
   local start end
   start=$(date +%s.%N)
@@ -62,23 +64,32 @@ run() {
 }
 
 echo
-echo "Alternating pairs: 1 process x 1 thread, then 2 ranks x 1 thread"
+echo "Alternating: 1 process x 1 thread, 2 ranks x 1 thread, and 1 process x 2"
+echo "threads (what the two cores give without MPI)"
 echo
-echo "| pair | 1 process wall s | 2 ranks wall s | speed-up | 2 ranks CPU s per rank |"
-echo "|---|---|---|---|---|"
+echo "| round | 1 process wall s | 2 ranks wall s | speed-up | 2 ranks CPU s per rank | 2 threads wall s | speed-up |"
+echo "|---|---|---|---|---|---|---|"
 speedups=()
+thread_speedups=()
+median() {
+  printf "%s\n" "$@" | sort -n |
+    awk '{v[NR]=$1} END{print (NR%2 ? v[(NR+1)/2] : (v[NR/2]+v[NR/2+1])/2)}'
+}
 for pair in $(seq "$pairs"); do
   run single 0
   single_wall=$wall
   run ranks2 2
   speedup=$(awk "BEGIN{printf \"%.2f\", $single_wall / $wall}")
   speedups+=("$speedup")
-  echo "| $pair | $single_wall | $wall | ${speedup}x | $ranks_cpu|"
+  row="| $pair | $single_wall | $wall | ${speedup}x | $ranks_cpu"
+  run threads2 0 2
+  thread_speedup=$(awk "BEGIN{printf \"%.2f\", $single_wall / $wall}")
+  thread_speedups+=("$thread_speedup")
+  echo "$row| $wall | ${thread_speedup}x |"
 done
-median=$(printf "%s\n" "${speedups[@]}" | sort -n |
-  awk '{v[NR]=$1} END{print (NR%2 ? v[(NR+1)/2] : (v[NR/2]+v[NR/2+1])/2)}')
 echo
-echo "median speed-up of 2 ranks: ${median}x"
+echo "median speed-up of 2 ranks: $(median "${speedups[@]}")x" \
+  "(2 threads: $(median "${thread_speedups[@]}")x)"
 
 echo
 echo "| mode | wall s | CPU s per rank | CPU s, all processes | speed-up |"
