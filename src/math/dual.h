@@ -17,6 +17,8 @@
 // unknown too, whatever the chain rule would give.
 #pragma once
 
+#include <type_traits>
+
 #include "interval.h"
 
 namespace implicit {
@@ -76,6 +78,19 @@ template <class T>
 inline dual<T> nan_checked(const dual<T>& a) {
   return may_be_nan(a.v) ? with_unknown_slope(a.v) : a;
 }
+// Whether a is one number with zero derivatives (a constant clause).
+// Products and quotients of boxes by one take the chain rule's one term:
+// the dropped term, value * 0, is 0 but for an infinite value, where the
+// full rule would give unknown slopes to a * c, whose slopes are c a'.
+template <class T>
+inline bool is_constant(const dual<T>& a) {
+  return is_single(a.v) && a.d[0] == T(0) && a.d[1] == T(0) && a.d[2] == T(0);
+}
+// a times the constant c.
+template <class T>
+inline dual<T> scaled(const dual<T>& a, const T& c) {
+  return nan_checked(dual<T>{a.v * c, {a.d[0] * c, a.d[1] * c, a.d[2] * c}});
+}
 // value with derivatives slope * a.d (the chain rule).
 template <class T>
 inline dual<T> chain(const dual<T>& a, const T& value, const T& slope) {
@@ -111,6 +126,10 @@ inline dual<T> math_sub(const dual<T>& a, const dual<T>& b) {
 }
 template <class T>
 inline dual<T> math_mul(const dual<T>& a, const dual<T>& b) {
+  if constexpr (std::is_same_v<T, interval>) {
+    if (is_constant(b)) return scaled(a, b.v);
+    if (is_constant(a)) return scaled(b, a.v);
+  }
   auto r = dual<T>{a.v * b.v};
   for (auto i = 0; i < 3; i++) r.d[i] = a.d[i] * b.v + a.v * b.d[i];
   return nan_checked(r);
@@ -118,6 +137,11 @@ inline dual<T> math_mul(const dual<T>& a, const dual<T>& b) {
 // (a / b)' = (a' - q b') / b with q = a / b.
 template <class T>
 inline dual<T> math_div(const dual<T>& a, const dual<T>& b) {
+  if constexpr (std::is_same_v<T, interval>) {
+    if (is_constant(b))
+      return nan_checked(
+          dual<T>{a.v / b.v, {a.d[0] / b.v, a.d[1] / b.v, a.d[2] / b.v}});
+  }
   auto r   = dual<T>{a.v / b.v};
   auto inv = T(1) / b.v;
   for (auto i = 0; i < 3; i++) r.d[i] = (a.d[i] - r.v * b.d[i]) * inv;

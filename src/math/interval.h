@@ -35,6 +35,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <utility>
 
 #include "math.h"
 
@@ -215,8 +216,38 @@ inline interval math_add(interval a, interval b) {
 inline interval math_sub(interval a, interval b) {
   return checked(add_down(a.lo, -b.hi), add_up(a.hi, -b.lo));
 }
+// A product or quotient by one number c: two corners, the other two are
+// the same products (the same bounds as four corners, NaN included: a
+// corner 0 * inf is NaN either way).
+inline interval mul_point(interval a, float c) {
+  return c >= 0 ? checked(mul_down(a.lo, c), mul_up(a.hi, c))
+                : checked(mul_down(a.hi, c), mul_up(a.lo, c));
+}
+inline interval div_point(interval a, float c) {
+  return c > 0 ? checked(div_down(a.lo, c), div_up(a.hi, c))
+               : checked(div_down(a.hi, c), div_up(a.lo, c));
+}
+// a * b for a finite a >= 0 and a finite b: for each value of b the
+// smallest product takes a.lo (b >= 0) or a.hi (b < 0), the largest the
+// other way.
+inline interval mul_one_sign(interval a, interval b) {
+  return {mul_down(b.lo >= 0 ? a.lo : a.hi, b.lo),
+      mul_up(b.hi <= 0 ? a.lo : a.hi, b.hi)};
+}
 // Products of the corners; math_min/max keep a NaN corner (0 * inf).
+// Constants are one-point intervals: most products in a tape are by one.
 inline interval math_mul(interval a, interval b) {
+  if (b.lo == b.hi) return mul_point(a, b.lo);
+  if (a.lo == a.hi) return mul_point(b, a.lo);
+  // A finite operand of one sign: the smallest and largest products are
+  // known corners (a slope times a derivative, mostly).
+  auto finite =
+      -flt_inf < a.lo && a.hi < flt_inf && -flt_inf < b.lo && b.hi < flt_inf;
+  if (finite && (a.lo >= 0 || a.hi <= 0 || b.lo >= 0 || b.hi <= 0)) {
+    if (a.lo < 0 && a.hi > 0) std::swap(a, b);  // a has one sign
+    if (a.hi <= 0) return math_neg(mul_one_sign(math_neg(a), b));
+    return mul_one_sign(a, b);
+  }
   return checked(math_min(math_min(mul_down(a.lo, b.lo), mul_down(a.lo, b.hi)),
                      math_min(mul_down(a.hi, b.lo), mul_down(a.hi, b.hi))),
       math_max(math_max(mul_up(a.lo, b.lo), mul_up(a.lo, b.hi)),
@@ -226,6 +257,7 @@ inline interval math_mul(interval a, interval b) {
 // opposite signs and 0 / 0 is NaN, and an interval cannot tell -0 from +0.
 inline interval math_div(interval a, interval b) {
   if (b.lo <= 0 && b.hi >= 0) return entire_interval;
+  if (b.lo == b.hi) return div_point(a, b.lo);
   return checked(math_min(math_min(div_down(a.lo, b.lo), div_down(a.lo, b.hi)),
                      math_min(div_down(a.hi, b.lo), div_down(a.hi, b.hi))),
       math_max(math_max(div_up(a.lo, b.lo), div_up(a.lo, b.hi)),
