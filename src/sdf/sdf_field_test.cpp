@@ -408,13 +408,15 @@ TEST_CASE("sdf prune: a balanced smooth blob keeps a few operands per cell") {
   auto  folded = simplify_sdf(make_sdf_tape(left_fold), cell);
   CHECK(count(pruned) <= 40);
   CHECK(count(folded) >= 3 * count(pruned));  // 33 and 136 when written
-  auto rng = make_rng(5);
+  auto rng            = make_rng(5);
+  auto balanced_tape  = make_sdf_tape(balanced);
+  auto left_fold_tape = make_sdf_tape(left_fold);
   for (auto k = 0; k < 16; k++) {
     auto p = cell.min + (cell.max - cell.min) * uniform3(rng, 0, 1);
     CHECK(eval_sdf(pruned, p) ==
-          doctest::Approx(eval_sdf(balanced, p)).epsilon(1e-5).scale(1));
+          doctest::Approx(eval_sdf(balanced_tape, p)).epsilon(1e-5).scale(1));
     CHECK(eval_sdf(folded, p) ==
-          doctest::Approx(eval_sdf(left_fold, p)).epsilon(1e-5).scale(1));
+          doctest::Approx(eval_sdf(left_fold_tape, p)).epsilon(1e-5).scale(1));
   }
 }
 

@@ -167,10 +167,10 @@ grid_stats compute_grid_stats(const grid_data& grid);
 
 // Sample an SDF program on a grid: sample (i,j,k) is at
 // bounds_world.min + spacing*(i,j,k) in world space and holds
-// eval_sdf(program, local_from_world * p) divided by the largest stretch of
-// local_from_world, so values stay distances (bounds) in world units. The
-// grid covers bounds_world (rounded up to whole voxels); `progress`, when
-// set, is called from the calling thread with (slices done, slices total).
+// eval_sdf(make_sdf_tape(program), local_from_world * p) divided by the largest
+// stretch of local_from_world, so values stay distances (bounds) in world
+// units. The grid covers bounds_world (rounded up to whole voxels); `progress`,
+// when set, is called from the calling thread with (slices done, slices total).
 // Throws io_error for empty or infinite bounds, a bad spacing or a grid over
 // budget.
 grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,

@@ -172,12 +172,6 @@ float eval_primitive(const sdf_node& node, vec3f p);
 // Analytic gradient of one primitive where it is cheap and exact (sphere,
 // plane, box, torus; unit length); false for the others.
 bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g);
-// Value of a whole program at a point, compiling its tape (sdf_tape.h) on
-// every call: for tests and single queries; loops compile once
-// (make_sdf_tape) and evaluate the tape, many points at a time.
-float eval_sdf(const sdf_program& program, vec3f p);
-// Unit gradient of the program (compiles a tape, as above).
-vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step);
 
 // Bounding box of the zero set of one primitive, in its local space.
 bbox3f primitive_bounds(const sdf_node& node);

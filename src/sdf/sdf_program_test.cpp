@@ -117,18 +117,18 @@ static sdf_program two_spheres(sdf_type op, float blend = 0) {
 
 TEST_CASE("sdf programs: operators") {
   // Sphere a is centred at x = -0.5 (child_from_parent adds 0.5), b at +0.5.
-  auto u = two_spheres(sdf_type::op_union);
+  auto u = make_sdf_tape(two_spheres(sdf_type::op_union));
   CHECK(eval_sdf(u, {2.5f, 0, 0}) == doctest::Approx(1.0f));
   CHECK(eval_sdf(u, {-2.5f, 0, 0}) == doctest::Approx(1.0f));
-  auto i = two_spheres(sdf_type::op_intersection);
+  auto i = make_sdf_tape(two_spheres(sdf_type::op_intersection));
   CHECK(eval_sdf(i, {0, 0, 0}) == doctest::Approx(-0.5f));
   CHECK(eval_sdf(i, {1.5f, 0, 0}) == doctest::Approx(1.0f));
-  auto s = two_spheres(sdf_type::op_subtraction);  // a minus b
+  auto s = make_sdf_tape(two_spheres(sdf_type::op_subtraction));  // a - b
   CHECK(eval_sdf(s, {-1.2f, 0, 0}) == doctest::Approx(-0.3f));
   CHECK(eval_sdf(s, {0, 0, 0}) == doctest::Approx(0.5f));
   // Smooth union is below the union by at most blend/4, exactly where the
   // two distances are equal.
-  auto su = two_spheres(sdf_type::op_smooth_union, 0.4f);
+  auto su = make_sdf_tape(two_spheres(sdf_type::op_smooth_union, 0.4f));
   CHECK(eval_sdf(su, {0, 2, 0}) ==
         doctest::Approx(eval_sdf(u, {0, 2, 0}) - 0.1f));
   CHECK(eval_sdf(su, {3, 0, 0}) == doctest::Approx(eval_sdf(u, {3, 0, 0})));

@@ -56,14 +56,6 @@ vec3f eval_sdf_gradient(const sdf_tape& tape, vec3f p, float step) {
       [&](vec3f q) { return eval_sdf(tape, q); }, p, step));
 }
 
-float eval_sdf(const sdf_program& program, vec3f p) {
-  return eval_sdf(make_sdf_tape(program), p);
-}
-
-vec3f eval_sdf_gradient(const sdf_program& program, vec3f p, float step) {
-  return eval_sdf_gradient(make_sdf_tape(program), p, step);
-}
-
 float eval_sdf_math(sdf_op op, float a, float b) {
   switch (op) {
     // clang-format off
