@@ -14,62 +14,52 @@ bounds its steps by the cells' interval derivatives.
 
 import argparse
 import json
-import math
 import os
 import random
+import sys
 
-
-class Tape:
-    """Clauses in fidget's .vm format, numbered as they are added."""
-
-    def __init__(self):
-        self.lines = []
-        self.consts = {}
-
-    def add(self, op, *args):
-        name = "_%x" % len(self.lines)
-        self.lines.append(" ".join([name, op] + list(args)))
-        return name
-
-    def const(self, value):
-        value = round(value, 5)
-        if value not in self.consts:
-            self.consts[value] = self.add("const", repr(value))
-        return self.consts[value]
+# The .vm writer and the scene helpers of the expression examples.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                "..", "examples", "expressions"))
+from make_examples import camera, scene, vm_writer  # noqa: E402
 
 
 def blob(t, xyz, center, radii):
     """An ellipsoid bound: |(p - c) / r| - 1, times the smallest radius."""
     terms = []
     for v, c, r in zip(xyz, center, radii):
-        d = t.add("sub", v, t.const(c))
-        terms.append(t.add("square", t.add("div", d, t.const(r))))
-    s = t.add("sqrt", t.add("add", t.add("add", terms[0], terms[1]), terms[2]))
-    return t.add("mul", t.add("sub", s, t.const(1.0)), t.const(min(radii)))
+        d = t.clause("sub", v, t.const(c))
+        terms.append(t.clause("square", t.clause("div", d, t.const(r))))
+    total = t.clause("add", t.clause("add", terms[0], terms[1]), terms[2])
+    s = t.clause("sqrt", total)
+    scaled = t.clause("sub", s, t.const(1.0))
+    return t.clause("mul", scaled, t.const(min(radii)))
 
 
 def smooth_union(t, distances, k):
     """-ln(sum exp(-k d)) / k: a union with rounded seams."""
     total = None
     for d in distances:
-        e = t.add("exp", t.add("mul", d, t.const(-k)))
-        total = e if total is None else t.add("add", total, e)
-    return t.add("div", t.add("neg", t.add("ln", total)), t.const(k))
+        e = t.clause("exp", t.clause("mul", d, t.const(-k)))
+        total = e if total is None else t.clause("add", total, e)
+    return t.clause("div", t.clause("neg", t.clause("ln", total)), t.const(k))
 
 
 def creature(t, rng, blobs):
-    x, y, z = t.add("var-x"), t.add("var-y"), t.add("var-z")
+    x, y, z = t.clause("var-x"), t.clause("var-y"), t.clause("var-z")
     parts = []
     per_part = max(2, blobs // 6)
     # A body, a head and four legs; each part a chain of blobs.
-    anchors = [((0, 0, 0), (0.45, 0.3, 0.3)), ((0.55, 0.25, 0), (0.2, 0.2, 0.2))]
+    anchors = [((0, 0, 0), (0.45, 0.3, 0.3)),
+               ((0.55, 0.25, 0), (0.2, 0.2, 0.2))]
     for sx in (-0.3, 0.3):
         for sz in (-0.2, 0.2):
             anchors.append(((sx, -0.35, sz), (0.09, 0.25, 0.09)))
     for (cx, cy, cz), (rx, ry, rz) in anchors:
         members = []
         for i in range(per_part):
-            c = (cx + rng.uniform(-rx, rx) * 0.6, cy + rng.uniform(-ry, ry) * 0.6,
+            c = (cx + rng.uniform(-rx, rx) * 0.6,
+                 cy + rng.uniform(-ry, ry) * 0.6,
                  cz + rng.uniform(-rz, rz) * 0.6)
             r = (rx * rng.uniform(0.4, 0.7), ry * rng.uniform(0.4, 0.7),
                  rz * rng.uniform(0.4, 0.7))
@@ -77,37 +67,22 @@ def creature(t, rng, blobs):
         parts.append(smooth_union(t, members, 24.0))
     shape = parts[0]
     for part in parts[1:]:
-        shape = t.add("min", shape, part)
+        shape = t.clause("min", shape, part)
     # Skin: a small displacement, sin(a x) sin(a y) sin(a z) * h.
     a = t.const(23.0)
-    waves = t.add("mul", t.add("sin", t.add("mul", x, a)),
-                  t.add("sin", t.add("mul", y, a)))
-    waves = t.add("mul", waves, t.add("sin", t.add("mul", z, a)))
-    return t.add("add", shape, t.add("mul", waves, t.const(0.008)))
+    waves = t.clause("mul", t.clause("sin", t.clause("mul", x, a)),
+                  t.clause("sin", t.clause("mul", y, a)))
+    waves = t.clause("mul", waves, t.clause("sin", t.clause("mul", z, a)))
+    return t.clause("add", shape, t.clause("mul", waves, t.const(0.008)))
 
 
-def scene(vm_name):
-    eye, target = (1.6, 0.6, 2.2), (0.1, -0.05, 0)
-    zaxis = [e - c for e, c in zip(eye, target)]
-    n = math.sqrt(sum(v * v for v in zaxis))
-    zaxis = [v / n for v in zaxis]
-    xaxis = [zaxis[2], 0, -zaxis[0]]
-    n = math.sqrt(sum(v * v for v in xaxis))
-    xaxis = [v / n for v in xaxis]
-    yaxis = [zaxis[1] * xaxis[2] - zaxis[2] * xaxis[1],
-             zaxis[2] * xaxis[0] - zaxis[0] * xaxis[2],
-             zaxis[0] * xaxis[1] - zaxis[1] * xaxis[0]]
-    frame = [round(v, 6) for v in xaxis + yaxis + zaxis + list(eye)]
-    return {
-        "asset": {"version": "4.2", "generator": "make_organic.py"},
-        "cameras": [{"name": "default", "frame": frame, "aspect": 1.0,
-                     "focus": 2.7}],
-        "environments": [{"name": "sky", "emission": [0.6, 0.65, 0.75]}],
-        "materials": [{"name": "skin", "color": [0.7, 0.5, 0.4]}],
-        "sdfunctions": [{"name": "creature", "type": "expression",
-                         "material": 0, "uri": vm_name,
-                         "bounds": [[-1, -1, -1], [1, 1, 1]]}],
-    }
+def organic_scene(vm_name):
+    cam = camera((1.6, 0.6, 2.2), (0.1, -0.05, 0), aspect=1.0)
+    return scene("implicit benchmark model: bench/make_organic.py", cam,
+                 [{"name": "skin", "color": [0.7, 0.5, 0.4]}],
+                 [{"name": "creature", "type": "expression", "material": 0,
+                   "uri": vm_name, "bounds": [[-1, -1, -1], [1, 1, 1]]}],
+                 sky=(0.6, 0.65, 0.75))
 
 
 def main():
@@ -116,13 +91,13 @@ def main():
     parser.add_argument("--blobs", type=int, default=30)
     args = parser.parse_args()
     os.makedirs(args.output, exist_ok=True)
-    tape = Tape()
+    tape = vm_writer()
     creature(tape, random.Random(7), args.blobs)
     with open(os.path.join(args.output, "organic.vm"), "w") as f:
         f.write("# generated by make_organic.py: %d blobs\n" % args.blobs)
         f.write("\n".join(tape.lines) + "\n")
     with open(os.path.join(args.output, "organic.json"), "w") as f:
-        json.dump(scene("organic.vm"), f, indent=1)
+        json.dump(organic_scene("organic.vm"), f, indent=1)
     print("%d clauses" % len(tape.lines))
 
 
