@@ -62,6 +62,13 @@ std::vector<float> layer_plane(const image_layer& layer, size_t c) {
   return values;
 }
 
+// ypathtrace on the example scene, writing `out`, with more options.
+command_result render_example(
+    const std::string& out, const std::string& options) {
+  return run_command(program_path("ypathtrace") + " --scene " +
+                     example_scene() + " --output " + out + " " + options);
+}
+
 bool same_floats(const std::vector<float>& a, const std::vector<float>& b) {
   return a.size() == b.size() &&
          std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
@@ -72,10 +79,9 @@ bool same_floats(const std::vector<float>& a, const std::vector<float>& b) {
 TEST_CASE("clean: --aov writes OpenEXR layers as the render core averages") {
   auto dir    = test_dir("clean_aov");
   auto out    = (dir / "out.exr").string();
-  auto result = run_command(program_path("ypathtrace") + " --scene " +
-                            example_scene() + " --output " + out +
-                            " --resolution 32 --samples 4 --quiet --aov "
-                            "depth,albedo,normal,position,variance");
+  auto result = render_example(out,
+      "--resolution 32 --samples 4 --quiet --aov "
+      "depth,albedo,normal,position,variance");
   INFO(result.output);
   REQUIRE(result.status == 0);
   auto expected = std::set<std::string>{"R", "G", "B", "A", "albedo.R",
@@ -111,10 +117,9 @@ TEST_CASE("clean: --aov writes OpenEXR layers as the render core averages") {
 TEST_CASE("clean: beside a .png each layer is an .exr of its own") {
   auto dir    = test_dir("clean_aov_png");
   auto out    = (dir / "out.png").string();
-  auto result = run_command(program_path("ypathtrace") + " --scene " +
-                            example_scene() + " --output " + out +
-                            " --resolution 24 --samples 2 --quiet "
-                            "--aov normal,depth --savebatch 1");
+  auto result = render_example(out,
+      "--resolution 24 --samples 2 --quiet "
+      "--aov normal,depth --savebatch 1");
   INFO(result.output);
   REQUIRE(result.status == 0);
   CHECK(fs::exists(out));
@@ -133,10 +138,9 @@ TEST_CASE("clean: beside a .png each layer is an .exr of its own") {
 TEST_CASE("clean: --time stops after a pass and writes a valid image") {
   auto dir    = test_dir("clean_time");
   auto out    = (dir / "out.exr").string();
-  auto result = run_command(program_path("ypathtrace") + " --scene " +
-                            example_scene() + " --output " + out +
-                            " --resolution 48 --samples 1000000 --time 0.5 "
-                            "--aov variance --savebatch 100000");
+  auto result = render_example(out,
+      "--resolution 48 --samples 1000000 --time 0.5 "
+      "--aov variance --savebatch 100000");
   INFO(result.output);
   REQUIRE(result.status == 0);
   // It says where it stopped: a pass end (1, 2, 4, ... 64, then every 64).
@@ -162,10 +166,9 @@ TEST_CASE("clean: --time stops after a pass and writes a valid image") {
 TEST_CASE("clean: --denoise writes the denoiser's image of the render") {
   auto dir    = test_dir("clean_denoise");
   auto out    = (dir / "out.exr").string();
-  auto result = run_command(program_path("ypathtrace") + " --scene " +
-                            example_scene() + " --output " + out +
-                            " --resolution 40 --samples 6 --quiet "
-                            "--denoise --savebatch 4 --threads 2");
+  auto result = render_example(out,
+      "--resolution 40 --samples 6 --quiet "
+      "--denoise --savebatch 4 --threads 2");
   INFO(result.output);
   REQUIRE(result.status == 0);
   // The same render here, its buffers handed to the denoiser.
@@ -203,10 +206,9 @@ TEST_CASE("clean: --denoise writes the denoiser's image of the render") {
             image.pixels.size() * sizeof(vec4f)) == 0);
   // --denoiser picks the method: NFOR's image of the same buffers.
   auto nfor_out = (dir / "nfor.exr").string();
-  auto nfor     = run_command(program_path("ypathtrace") + " --scene " +
-                              example_scene() + " --output " + nfor_out +
-                              " --resolution 40 --samples 6 --quiet "
-                                  "--denoise --denoiser nfor --threads 2");
+  auto nfor     = render_example(nfor_out,
+          "--resolution 40 --samples 6 --quiet --denoise --denoiser nfor "
+              "--threads 2");
   INFO(nfor.output);
   REQUIRE(nfor.status == 0);
   auto method   = denoise_params{};

@@ -216,13 +216,8 @@ inline interval math_add(interval a, interval b) {
 inline interval math_sub(interval a, interval b) {
   return checked(add_down(a.lo, -b.hi), add_up(a.hi, -b.lo));
 }
-// A product or quotient by one number c: two corners, the other two are
-// the same products (the same bounds as four corners, NaN included: a
-// corner 0 * inf is NaN either way).
-inline interval mul_point(interval a, float c) {
-  return c >= 0 ? checked(mul_down(a.lo, c), mul_up(a.hi, c))
-                : checked(mul_down(a.hi, c), mul_up(a.lo, c));
-}
+// A quotient by one number c: two corners, the other two are the same
+// quotients (the same bounds as four corners).
 inline interval div_point(interval a, float c) {
   return c > 0 ? checked(div_down(a.lo, c), div_up(a.hi, c))
                : checked(div_down(a.hi, c), div_up(a.lo, c));
@@ -235,12 +230,10 @@ inline interval mul_one_sign(interval a, interval b) {
       mul_up(b.hi <= 0 ? a.lo : a.hi, b.hi)};
 }
 // Products of the corners; math_min/max keep a NaN corner (0 * inf).
-// Constants are one-point intervals: most products in a tape are by one.
 inline interval math_mul(interval a, interval b) {
-  if (b.lo == b.hi) return mul_point(a, b.lo);
-  if (a.lo == a.hi) return mul_point(b, a.lo);
   // A finite operand of one sign: the smallest and largest products are
-  // known corners (a slope times a derivative, mostly).
+  // known corners. Most products in a tape are by a constant (a one-point
+  // interval) or of a slope and a derivative.
   auto finite =
       -flt_inf < a.lo && a.hi < flt_inf && -flt_inf < b.lo && b.hi < flt_inf;
   if (finite && (a.lo >= 0 || a.hi <= 0 || b.lo >= 0 || b.hi <= 0)) {
