@@ -675,11 +675,13 @@ def load_vm(path, *, bounds=None):
 def _combine(kind, a, bs, k):
     """Fold operands left; plain steps extend one n-ary node, smooth ones
     (the right operand's .k()) nest a smooth node. With `k`, all operands
-    form one smooth node, as the scene format reads an `operands` list:
-    unions and intersections pair neighbours into a balanced tree (the
-    same as folding left for 2 and 3 operands), so that a blend of many
-    parts listed in spatial order prunes well and nests no deeper than
-    one level."""
+    form one smooth node, as the scene format reads an `operands` list: a
+    smooth union folds its operands' values in increasing order at each
+    point (the same for any order of the parts, and chained .k() parts of
+    one blend are the same node), intersections pair neighbours into a
+    balanced tree (the same as folding left for 2 and 3 operands), so that
+    a blend of many parts prunes well and nests no deeper than one
+    level."""
     node = _sdf(a)._json()
     if k is not None:
         k = _positive("k", k)

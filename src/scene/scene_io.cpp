@@ -32,8 +32,9 @@
 //
 //   union, intersection, subtraction     operands (>= 2; folded left, so
 //                                        subtraction removes 2.. from 1)
-//   smooth_union, smooth_intersection,   operands, blend (> 0; unions and
-//   smooth_subtraction                   intersections pair neighbours into
+//   smooth_union, smooth_intersection,   operands, blend (> 0; a union is
+//   smooth_subtraction                   one group of any order,
+//                                        intersections pair neighbours into
 //                                        a balanced tree: fold_sdf_operands)
 //   round                                operand, radius (> 0, added)
 //   onion                                operand, thickness (> 0, half shell)

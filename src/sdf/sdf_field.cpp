@@ -185,6 +185,7 @@ static cell_build simplify_cell(
     build.split = true;
     return build;
   }
+  build.clauses.reserve(size);
   allocate_sdf_registers(build.simplified, build.clauses);
   cell.count = (int)build.clauses.size();
   // A distance program keeps its global bound; others get the bound of

@@ -106,6 +106,23 @@ inline float eval_sdf(const sdf_field& field, vec3f p) {
   return eval_sdf_cell(field, find_sdf_cell(field, p), p);
 }
 
+// The leaf that the last point of a walk fell in (a march along a ray moves
+// a little at a time): the next point inside its box skips the descent from
+// the root. Boxes are half open, [min, max), as find_sdf_cell splits them,
+// so the leaf is the one it would find.
+struct sdf_field_cursor {
+  int    cell = invalidid;
+  bbox3f box  = {};
+};
+inline float eval_sdf(
+    const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
+  auto& b = cursor.box;
+  if (!(cursor.cell >= 0 && p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y &&
+          p.y < b.max.y && p.z >= b.min.z && p.z < b.max.z))
+    cursor.cell = find_sdf_cell(field, p, cursor.box);
+  return eval_sdf_cell(field, cursor.cell, p);
+}
+
 // Interval of the values over `box` (inside the cell) with the tape of
 // cell `cell`; a constant cell gives its range.
 interval eval_sdf_cell_interval(

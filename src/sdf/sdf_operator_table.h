@@ -105,10 +105,11 @@ inline const std::vector<sdf_operator> sdf_operators = {
   {"smooth_union", sdf_type::op_smooth_union, sdf_operator_build::fold,
     {{"operands", sdf_key_type::operand_list, sdf_key_range::any,
       sdf_key_field::none, true,
-      "the shapes, paired into a balanced tree in list order"},
+      "the shapes, in any order (the same function)"},
      {"blend", sdf_key_type::number, sdf_key_range::positive,
       sdf_key_field::blend, true, "blend radius"}},
-    "polynomial smooth minimum of the operands"},
+    "polynomial smooth minimum of the operands, folded over their "
+    "values in increasing order"},
   {"smooth_intersection", sdf_type::op_smooth_intersection,
     sdf_operator_build::fold,
     {{"operands", sdf_key_type::operand_list, sdf_key_range::any,

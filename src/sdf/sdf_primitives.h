@@ -275,6 +275,19 @@ inline sdf_param_problem check_octahedron(const sdf_node& n) {
   return sdf_no_problem(n);
 }
 
+// Distance of one primitive node at a local point (inline: the tapes'
+// loops call it for every primitive clause).
+inline float eval_primitive(const sdf_node& node, vec3f p) {
+#define IMPLICIT_SDF_EVAL(id, name) \
+  case sdf_type::id: return eval_##id(node, p);
+  switch (node.type) {
+    IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_EVAL)
+    IMPLICIT_SDF_OPERATOR_CASES break;
+  }
+#undef IMPLICIT_SDF_EVAL
+  return flt_max;  // an operator: no primitive
+}
+
 // -----------------------------------------------------------------------------
 // OPERATORS (on distances)
 // -----------------------------------------------------------------------------
@@ -284,6 +297,13 @@ inline float smooth_min(float a, float b, float blend) {
   if (blend <= 0) return std::min(a, b);
   auto h = std::max(blend - std::abs(a - b), 0.0f) / blend;
   return std::min(a, b) - h * h * blend * 0.25f;
+}
+// The smooth minimum of a smooth union group (sdf_program.h): `values`
+// sorted in increasing order, folded from the smallest.
+inline float smooth_min_sorted(const float* values, int count, float blend) {
+  auto m = values[0];
+  for (auto i = 1; i < count; i++) m = smooth_min(m, values[i], blend);
+  return m;
 }
 inline float smooth_max(float a, float b, float blend) {
   return -smooth_min(-a, -b, blend);

@@ -2,6 +2,7 @@
 
 #include "sdf_program.h"
 
+#include <algorithm>
 #include <cassert>
 #include <string>
 #include <utility>
@@ -45,6 +46,44 @@ int fold_sdf_operands(
     level = std::move(next);
   }
   return level[0];
+}
+
+std::vector<char> find_smooth_groups(const sdf_program& program) {
+  auto n     = (int)program.nodes.size();
+  auto users = std::vector<int>(n, 0);
+  for (auto& node : program.nodes) {
+    auto count = sdf_operand_count(node.type);
+    if (count >= 1) users[node.left]++;
+    if (count >= 2) users[node.right]++;
+  }
+  auto absorbed = std::vector<char>(n, 0);
+  for (auto& node : program.nodes) {
+    if (node.type != sdf_type::op_smooth_union) continue;
+    for (auto operand : {node.left, node.right}) {
+      auto& child = program.nodes[operand];
+      if (child.type == sdf_type::op_smooth_union && users[operand] == 1 &&
+          child.blend == node.blend)
+        absorbed[operand] = 1;
+    }
+  }
+  return absorbed;
+}
+
+void smooth_group_operands(const sdf_program& program,
+    const std::vector<char>& absorbed, int root, std::vector<int>& operands) {
+  operands.clear();
+  auto stack = std::vector<int>{root};
+  while (!stack.empty()) {
+    auto index = stack.back();
+    stack.pop_back();
+    if (index != root && !absorbed[index]) {
+      operands.push_back(index);
+      continue;
+    }
+    auto& node = program.nodes[index];
+    stack.push_back(node.right);
+    stack.push_back(node.left);
+  }
 }
 
 int add_transform(
@@ -107,18 +146,6 @@ int sdf_operand_count(sdf_type type) {
 #undef IMPLICIT_SDF_MATH_OPERANDS
   }
   return 0;
-}
-
-float eval_primitive(const sdf_node& node, vec3f p) {
-#define IMPLICIT_SDF_EVAL(id, name) \
-  case sdf_type::id: return eval_##id(node, p);
-  switch (node.type) {
-    IMPLICIT_SDF_PRIMITIVES(IMPLICIT_SDF_EVAL)
-    IMPLICIT_SDF_OPERATOR_CASES break;
-  }
-#undef IMPLICIT_SDF_EVAL
-  assert(false && "eval_primitive on an operator");
-  return flt_max;
 }
 
 bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g) {
@@ -269,14 +296,17 @@ static bbox3f warp_bounds(const sdf_node& node, const bbox3f& box) {
 // box unexpanded (`cores`) and the depth: if the operands lie at most d_a
 // and d_b below the minimum m of their own operands, the smooth minimum,
 // monotone in each operand, is at least smooth_min(m - d_a, m - d_b), which
-// lies below m by max(d_a, d_b) + k h^2 / 4 with h from |d_a - d_b|. Along
-// the left-folded chains that `operands` lists make (d_b = 0), the depth
-// converges to k instead of growing by k/4 per operand.
+// lies below m by max(d_a, d_b) + k h^2 / 4 with h from |d_a - d_b|. A
+// group (find_smooth_groups) folds its sorted operands the same way: its
+// depth is the fold of m - d_j, which stays below k plus the deepest d_j
+// however many operands it has.
 bbox3f sdf_bounds(const sdf_program& program) {
   if (program.nodes.empty()) return {};
-  auto bounds = std::vector<bbox3f>(program.nodes.size());
-  auto cores  = std::vector<bbox3f>(program.nodes.size());
-  auto depths = std::vector<float>(program.nodes.size(), 0);
+  auto bounds   = std::vector<bbox3f>(program.nodes.size());
+  auto cores    = std::vector<bbox3f>(program.nodes.size());
+  auto depths   = std::vector<float>(program.nodes.size(), 0);
+  auto absorbed = find_smooth_groups(program);
+  auto operands = std::vector<int>{};
   for (auto i = 0; i < (int)program.nodes.size(); i++) {
     auto& node = program.nodes[i];
     auto  left = [&] { return bounds[node.left]; };
@@ -293,13 +323,21 @@ bbox3f sdf_bounds(const sdf_program& program) {
       // smooth union grows by that much; the smooth maximum is never below
       // the maximum, so smooth intersections and subtractions do not grow.
       case sdf_type::op_smooth_union: {
+        if (absorbed[i]) break;  // its group's root bounds it
+        smooth_group_operands(program, absorbed, i, operands);
         auto core = [&](int k) { return depths[k] > 0 ? cores[k] : bounds[k]; };
-        auto da = depths[node.left], db = depths[node.right];
-        auto k    = std::max(node.blend, 0.0f);
-        auto h    = k > 0 ? std::max(k - std::abs(da - db), 0.0f) / k : 0.0f;
-        cores[i]  = merge(core(node.left), core(node.right));
-        depths[i] = std::max(da, db) + k * h * h * 0.25f;
-        box       = expand(cores[i], depths[i]);
+        // The group's value at least that of operands at m - d_j: the
+        // sorted fold of the deepest d_j, negated.
+        auto lows = std::vector<float>{};
+        for (auto k : operands) {
+          cores[i] = merge(cores[i], core(k));
+          lows.push_back(-depths[k]);
+        }
+        std::sort(lows.begin(), lows.end());
+        auto count = std::min((int)lows.size(), sdf_smooth_group_size);
+        depths[i] =
+            -smooth_min_sorted(lows.data(), count, std::max(node.blend, 0.0f));
+        box = expand(cores[i], depths[i]);
         break;
       }
       case sdf_type::op_smooth_intersection: box = meet(); break;

@@ -142,10 +142,26 @@ int add_transform(
 // and 3 operands: a smooth fold depends on every operand before the nearest
 // ones, so a left fold of a long list could not be pruned in space, while
 // the balanced tree of a spatially ordered list leaves each region a few
-// operands. The other operators fold left, ((1 2) 3) 4, which for unions and
+// operands (a smooth union's tree is one group below, whatever its shape).
+// The other operators fold left, ((1 2) 3) 4, which for unions and
 // intersections is the same function and makes subtraction remove 2.. from 1.
 int fold_sdf_operands(
     sdf_program& program, const std::vector<int>& operands, sdf_node op);
+// Smooth union groups: a smooth union whose operand is a smooth union of
+// the same blend, read by it alone, takes that operand's operands as its
+// own, so a list (however fold_sdf_operands paired it) or a nest of one
+// blend is one n-ary smooth union. Its value is the smooth minimum of its
+// sdf_smooth_group_size smallest operand values folded in increasing order
+// (sdf_tape_eval.h): the same for any order or grouping of the operands, a
+// distance bound, and exactly the operands below min(hi) + blend matter
+// over a box (sdf_simplify.cpp). Returns, per node, whether its user's
+// group absorbs it.
+std::vector<char> find_smooth_groups(const sdf_program& program);
+// The operands of the group rooted at `root` (a smooth union that is not
+// absorbed), in list order; explicit stack.
+void                 smooth_group_operands(const sdf_program& program,
+                    const std::vector<char>& absorbed, int root, std::vector<int>& operands);
+inline constexpr int sdf_smooth_group_size = 8;
 // Append the nodes of `other` (its root becomes an operand); returns its root.
 int append_program(sdf_program& program, const sdf_program& other);
 // A one-node program.
@@ -167,8 +183,8 @@ int sdf_operand_count(sdf_type type);
 // EVALUATION (sdf_tape.h compiles and evaluates whole programs)
 // -----------------------------------------------------------------------------
 
-// Distance of one primitive node at a local point.
-float eval_primitive(const sdf_node& node, vec3f p);
+// (eval_primitive, the distance of one primitive node at a local point, is
+// in sdf_primitives.h: inline, for the tapes' loops.)
 // Analytic gradient of one primitive where it is cheap and exact (sphere,
 // plane, box, torus; unit length); false for the others.
 bool eval_primitive_gradient(const sdf_node& node, vec3f p, vec3f& g);

@@ -42,6 +42,15 @@
 //   (solving the polynomial; smooth_cap()). a gets the smaller of the two
 //   caps. Without the lower bound of b, each level of a chain of kept
 //   operands would loosen the cap by k.
+// - a smooth union group (sdf_program.h: the smooth minimum folded over
+//   the smallest operand values in increasing order, from m, the least of
+//   them): the fold so far never exceeds m, and m <= hi_j for every
+//   operand j, so where operand b >= hi_j + k for some other j, b lies a
+//   blend above the fold when its turn comes, h = 0, and neither b nor any
+//   value after it changes the fold; a replacement g >= hi_j + k does the
+//   same, and keeps b out of the smallest values' set or in it without
+//   effect. So b gets cap min_{j != b} hi_j + k (no floor) and is dropped
+//   when lo_b reaches it; a group left with one operand becomes it.
 // - smooth_max(a, b, k) = -smooth_min(-a, -b, k): a gets the mirrored
 //   floor max(lo_b - k, -smooth_cap(-floor_n, -hi_b)) and is dropped when
 //   its hi is below it. Smooth subtraction smooth_max(a, -b, k) is the same
@@ -93,11 +102,15 @@ float smooth_cap(float cap, float lo_other, float k) {
 // Pass 1: the interval of every clause over the box, bottom-up.
 void bound_clauses(const sdf_tape& pool, const std::vector<sdf_ssa>& ssa,
     const bbox3f& box, sdf_simplify_state& state) {
+  // Scratch only grows: slots are written before they are read.
   auto n = ssa.size();
-  state.values.resize(n);
-  state.points.resize(n);
+  if (state.values.size() < n) {
+    state.values.resize(n);
+    state.points.resize(n);
+    state.groups.resize(n);
+  }
   run_sdf_clauses(pool, ssa.data(), ssa.data() + n, state.values.data(),
-      state.points.data(), make_box_point(box), 0.0f);
+      state.points.data(), state.groups.data(), make_box_point(box), 0.0f);
 }
 
 // The top-down walk of pass 2 at one clause.
@@ -158,6 +171,47 @@ struct cap_walk {
     keep(a, std::min(hi(b) + k, reach_a), -flt_inf);
     keep(b, std::min(hi(a) + k, reach_b), -flt_inf);
   }
+  // A group (its close clause here): see the proof above.
+  void smooth_group_rule(const std::vector<sdf_ssa>& ssa, float k) {
+    auto& chain = state.chain;
+    chain.clear();
+    auto open = ssa[node].a;
+    for (; ssa[open].op == sdf_op::smooth_add; open = ssa[open].a)
+      chain.push_back(open);
+    auto least = flt_inf, second = flt_inf;  // the two least upper ends
+    auto entire_operand = false;
+    for (auto add : chain) {
+      auto b = ssa[add].b;
+      entire_operand |= entire(b);
+      second = std::max(least, std::min(second, hi(b)));
+      least  = std::min(least, hi(b));
+    }
+    // The reach of operand b: a blend above the least upper end of the
+    // others; the one with the least upper end always matters.
+    auto reach = [&](int b) {
+      if (entire_operand) return flt_inf;
+      return (hi(b) == least ? second : least) + k;
+    };
+    auto matters = [&](int b) { return lo(b) < reach(b) || hi(b) == least; };
+    auto count   = 0;
+    auto last    = invalidid;
+    for (auto add : chain) {
+      if (!matters(ssa[add].b)) continue;
+      count++;
+      last = ssa[add].b;
+    }
+    if (count == 1) return become(last);
+    state.state[open] = kept;
+    for (auto add : chain) {
+      auto b           = ssa[add].b;
+      state.state[add] = kept;
+      if (matters(b)) {
+        keep(b, reach(b), -flt_inf);
+      } else {
+        state.pass[add] = ssa[add].a;
+      }
+    }
+  }
   void smooth_intersection_rule(int a, int b, float k) {
     if (entire(a) || entire(b)) return keep(a), keep(b);
     auto reach_a = -smooth_cap(-floor(), -hi(b), k);
@@ -194,7 +248,8 @@ void propagate_caps(
     auto& c     = ssa[i];
     auto  value = state.values[i];
     // One number over the whole box: a constant.
-    if (!is_point_op(c.op) && c.op != sdf_op::math_const && is_single(value) &&
+    if (!is_point_op(c.op) && !is_group_op(c.op) &&
+        c.op != sdf_op::math_const && is_single(value) &&
         std::isfinite(value.lo)) {
       state.state[i] = folded;
       continue;
@@ -202,7 +257,10 @@ void propagate_caps(
     auto walk = cap_walk{state, i};
     auto k    = std::max(sdf_param_float(c.param), 0.0f);
     switch (c.op) {
-      case sdf_op::input: break;
+      case sdf_op::input:
+      case sdf_op::smooth_open:
+      case sdf_op::smooth_add: break;  // the group's close kept its operands
+      case sdf_op::smooth_close: walk.smooth_group_rule(ssa, k); break;
       case sdf_op::csg_union: walk.min_rule(c.a, c.b); break;
       case sdf_op::csg_intersection: walk.max_rule(c.a, c.b); break;
       case sdf_op::csg_subtraction: walk.subtraction_rule(c.a, c.b); break;
@@ -297,7 +355,7 @@ interval simplify_sdf(const sdf_tape& pool, const std::vector<sdf_ssa>& ssa,
   bound_clauses(pool, ssa, box, state);
   propagate_caps(ssa, state);
   emit_clauses(ssa, state, simplified);
-  return state.values.back();
+  return state.values[ssa.size() - 1];
 }
 
 sdf_tape simplify_sdf(const sdf_tape& tape, const bbox3f& box) {

@@ -28,13 +28,15 @@ namespace implicit {
 // Scratch space of simplify_sdf, one slot per clause, reused across calls so
 // that simplifying many cells allocates once.
 struct sdf_simplify_state {
-  std::vector<interval>      values = {};  // each clause's interval
-  std::vector<sdf_box_point> points = {};  // each point clause's box
-  std::vector<float>         caps   = {};
-  std::vector<float>         floors = {};
-  std::vector<int>           pass   = {};  // the clause a clause becomes
-  std::vector<int>           index  = {};  // position in the output
-  std::vector<char>          state  = {};  // unreached, kept or folded
+  std::vector<interval>             values = {};  // each clause's interval
+  std::vector<sdf_box_point>        points = {};  // each point clause's box
+  std::vector<sdf_smooth_intervals> groups = {};  // each group clause's
+  std::vector<int>                  chain  = {};  // the adds of one group
+  std::vector<float>                caps   = {};
+  std::vector<float>                floors = {};
+  std::vector<int>                  pass   = {};  // the clause a clause becomes
+  std::vector<int>                  index  = {};  // position in the output
+  std::vector<char>                 state  = {};  // unreached, kept or folded
 };
 
 // The SSA clauses `ssa` (over the nodes and maps of `pool`) restricted to

@@ -3,6 +3,7 @@
 #include "sdf_tape.h"
 
 #include <algorithm>
+#include <array>
 #include <string>
 
 #include "../util/error.h"
@@ -16,7 +17,9 @@ namespace implicit {
 
 int sdf_op_inputs(sdf_op op) {
   switch (op) {
-    case sdf_op::input: return 0;
+    case sdf_op::input:
+    case sdf_op::smooth_open: return 0;
+    case sdf_op::smooth_close:
     case sdf_op::map:
     case sdf_op::twist:
     case sdf_op::bend:
@@ -32,7 +35,8 @@ int sdf_op_inputs(sdf_op op) {
     case sdf_op::csg_subtraction:
     case sdf_op::csg_smooth_union:
     case sdf_op::csg_smooth_intersection:
-    case sdf_op::csg_smooth_subtraction: return 2;
+    case sdf_op::csg_smooth_subtraction:
+    case sdf_op::smooth_add: return 2;
     // var-x/y/z read a point.
     case sdf_op::math_x:
     case sdf_op::math_y:
@@ -79,6 +83,8 @@ struct tape_compiler {
   std::vector<int>        value       = {};  // per node: its clause
   std::vector<int>        warp_point  = {};  // per domain operator: its point
   std::vector<int>        space_point = {};  // per space: its point clause
+  std::vector<char>       absorbed    = {};  // find_smooth_groups
+  std::vector<int>        group       = {};  // per group root: its last add
 
   int emit(sdf_op op, int a = invalidid, int b = invalidid, uint32_t p = 0) {
     tape.ssa.push_back({op, a, b, p});
@@ -268,19 +274,45 @@ sdf_op warp_op(sdf_type type) {
   return sdf_op::input;
 }
 
+// Whether node `index` is the root of a smooth union group of 3 operands or
+// more (smaller ones stay one binary clause).
+bool is_group_root(const tape_compiler& compiler, int index) {
+  auto& node = compiler.program.nodes[index];
+  return node.type == sdf_type::op_smooth_union && !compiler.absorbed[index] &&
+         (compiler.absorbed[node.left] || compiler.absorbed[node.right]);
+}
+
+// One step of emit_clauses' walk: visit a node (expand it, or emit it once
+// its operands are), or put operand `index` into the group of `root`.
+enum class walk_step { visit, emit, add };
+struct walk_item {
+  int       index = 0;
+  walk_step step  = walk_step::visit;
+  int       root  = invalidid;
+};
+
 // Clauses in evaluation order: a post-order walk from the root with an
 // explicit stack, each node once (shared nodes are one clause), the operand
 // needing more registers first (Sethi and Ullman 1970: a tree of n leaves
 // then needs at most log2(n) + 1 registers, whatever its shape). A domain
-// operator's point clause comes before its operand's clauses.
+// operator's point clause comes before its operand's clauses. A group adds
+// each operand to its accumulator right after the operand's clauses, so one
+// operand value is live at a time however many the group has; it opens the
+// accumulator after its first operand (the one needing most registers: a
+// nested group there closes before its user's opens).
 void emit_clauses(tape_compiler& compiler) {
-  auto& nodes = compiler.program.nodes;
-  auto  n     = (int)nodes.size();
-  auto  need  = std::vector<int>(n, 1);
+  auto& nodes       = compiler.program.nodes;
+  auto  n           = (int)nodes.size();
+  auto  need        = std::vector<int>(n, 1);
+  auto  group       = std::vector<int>{};
+  compiler.absorbed = find_smooth_groups(compiler.program);
   for (auto i = 0; i < n; i++) {
     auto& node  = nodes[i];
     auto  count = sdf_operand_count(node.type);
-    if (count == 1) {
+    if (is_group_root(compiler, i)) {
+      smooth_group_operands(compiler.program, compiler.absorbed, i, group);
+      for (auto k : group) need[i] = std::max(need[i], need[k]);
+    } else if (count == 1) {
       need[i] = need[node.left];
     } else if (count == 2) {
       auto l = need[node.left], r = need[node.right];
@@ -288,31 +320,55 @@ void emit_clauses(tape_compiler& compiler) {
     }
   }
   compiler.value.assign(n, invalidid);
+  compiler.group.assign(n, invalidid);
   compiler.warp_point.assign(n, invalidid);
   compiler.space_point.assign(compiler.spaces.size(), invalidid);
   compiler.emit(sdf_op::input);
-  auto stack = std::vector<std::pair<int, bool>>{{n - 1, false}};
+  auto stack = std::vector<walk_item>{{n - 1}};
   while (!stack.empty()) {
-    auto [index, expanded] = stack.back();
+    auto item = stack.back();
     stack.pop_back();
+    auto index = item.index;
+    if (item.step == walk_step::add) {
+      auto& acc = compiler.group[item.root];
+      if (acc < 0) acc = compiler.emit(sdf_op::smooth_open);
+      acc = compiler.emit(sdf_op::smooth_add, acc, compiler.value[index],
+          sdf_float_param(nodes[item.root].blend));
+      continue;
+    }
     if (compiler.value[index] >= 0) continue;  // shared, already emitted
     auto& node  = nodes[index];
     auto  count = sdf_operand_count(node.type);
-    if (!expanded && count > 0) {
+    if (item.step == walk_step::visit && is_group_root(compiler, index)) {
+      stack.push_back({index, walk_step::emit});
+      smooth_group_operands(compiler.program, compiler.absorbed, index, group);
+      std::stable_sort(group.begin(), group.end(),
+          [&](int a, int b) { return need[a] > need[b]; });
+      for (auto k = (int)group.size() - 1; k >= 0; k--) {
+        stack.push_back({group[k], walk_step::add, index});
+        stack.push_back({group[k]});
+      }
+      continue;
+    }
+    if (item.step == walk_step::visit && count > 0) {
       if (is_warp(node.type) && compiler.warp_point[index] < 0) {
         auto in = point_of_space(compiler, compiler.space[index]);
         compiler.warp_point[index] = compiler.emit(warp_op(node.type), in,
             invalidid, pool_node(compiler, index, invalidid));
       }
-      stack.push_back({index, true});
+      stack.push_back({index, walk_step::emit});
       auto first = node.left, second = node.right;
       if (count == 2 && need[node.right] > need[node.left])
         std::swap(first, second);
-      if (count == 2) stack.push_back({second, false});
-      stack.push_back({first, false});
+      if (count == 2) stack.push_back({second});
+      stack.push_back({first});
       continue;
     }
-    compiler.value[index] = emit_node(compiler, index);
+    compiler.value[index] =
+        is_group_root(compiler, index)
+            ? compiler.emit(sdf_op::smooth_close, compiler.group[index],
+                  invalidid, sdf_float_param(node.blend))
+            : emit_node(compiler, index);
   }
 }
 
@@ -362,8 +418,10 @@ sdf_tape make_sdf_tape(const sdf_program& program) {
   if (!allocate_sdf_registers(tape.ssa, tape.clauses))
     throw io_error("sdf program: needs more than " +
                    std::to_string(sdf_max_registers) + " values or " +
-                   std::to_string(sdf_max_points) +
-                   " points at once (too many shared subexpressions)");
+                   std::to_string(sdf_max_points) + " points or " +
+                   std::to_string(sdf_max_groups) +
+                   " smooth union groups at once (too many shared "
+                   "subexpressions, or groups nested too deep)");
   tape.lipschitz = sdf_lipschitz(program);
   return tape;
 }
@@ -374,19 +432,24 @@ sdf_tape make_sdf_tape(const sdf_program& program) {
 
 namespace {
 
-// Free registers of one file, lowest first.
+// Free registers of one file, lowest first: the never-used ones count up
+// from `next`, the freed ones wait in a stack (no allocation: the octree
+// allocates registers for every cell it builds).
 struct register_file {
-  std::vector<uint8_t> free = {};
-  explicit register_file(int count) {
-    for (auto r = count - 1; r >= 0; r--) free.push_back((uint8_t)r);
-  }
+  int                                    count = 0, next = 0, freed = 0;
+  std::array<uint8_t, sdf_max_registers> stack = {};
+  explicit register_file(int count_) : count{count_} {}
   bool take(int& reg) {
-    if (free.empty()) return false;
-    reg = free.back();
-    free.pop_back();
+    if (freed > 0) {
+      reg = stack[--freed];
+    } else if (next < count) {
+      reg = next++;
+    } else {
+      return false;
+    }
     return true;
   }
-  void give(int reg) { free.push_back((uint8_t)reg); }
+  void give(int reg) { stack[freed++] = (uint8_t)reg; }
 };
 
 }  // namespace
@@ -401,10 +464,12 @@ bool allocate_sdf_registers(
   if (n == 0) return true;
   auto scalars = register_file{sdf_max_registers};
   auto points  = register_file{sdf_max_points};
+  auto groups  = register_file{sdf_max_groups};
   auto reg     = std::vector<int>(n, invalidid);
   auto start   = clauses.size();
   auto file    = [&](int index) -> register_file& {
-    return is_point_op(ssa[index].op) ? points : scalars;
+    auto op = ssa[index].op;
+    return is_point_op(op) ? points : is_group_op(op) ? groups : scalars;
   };
   if (!file(n - 1).take(reg[n - 1])) return false;
   for (auto i = n - 1; i >= 0; i--) {

@@ -12,7 +12,8 @@
 //   map (in `frames`). Per-cell simplification (sdf_simplify.h) reads and
 //   writes this form.
 // - Registers (`sdf_tape::clauses`): the same clauses with their values in
-//   a fixed file of 256 scalar and 64 point registers, assigned by a reverse
+//   a fixed file of 256 scalar, 64 point and 16 group registers (the
+//   accumulators of n-ary smooth unions), assigned by a reverse
 //   linear scan (fidget's compiler/alloc.rs: walking from the root, a value
 //   takes a register at its last use and frees it at its definition), so a
 //   model of any size evaluates with a few kilobytes of stack. A program that
@@ -52,6 +53,11 @@ namespace implicit {
 //   twist bend repeat elongate mirror shape
 //                                  index in sdf_tape::nodes
 //   scale (a * s) smooth_* (blend) round (radius) onion (thickness)
+//   smooth_open smooth_add smooth_close
+//                                  a smooth union group (sdf_program.h) of
+//                                  3 operands or more: open starts an
+//                                  accumulator, each add puts an operand
+//                                  (b) into it (a), close folds it (blend)
 //   math_const (value)             the float's bits (sdf_param_float)
 // clang-format off
 #define IMPLICIT_SDF_OP_ENUM(id) id,
@@ -61,7 +67,7 @@ namespace implicit {
 #define IMPLICIT_SDF_DISTANCE_OPS(X)                                         \
   X(shape) X(scale) X(csg_union) X(csg_intersection) X(csg_subtraction)    \
   X(csg_smooth_union) X(csg_smooth_intersection) X(csg_smooth_subtraction) \
-  X(csg_round) X(csg_onion)
+  X(csg_round) X(csg_onion) X(smooth_open) X(smooth_add) X(smooth_close)
 enum class sdf_op : uint8_t {
   IMPLICIT_SDF_POINT_OPS(IMPLICIT_SDF_OP_ENUM)
   IMPLICIT_SDF_DISTANCE_OPS(IMPLICIT_SDF_OP_ENUM)
@@ -80,8 +86,12 @@ enum class sdf_op : uint8_t {
   IMPLICIT_SDF_DISTANCE_OPS(IMPLICIT_SDF_OP_CASE)
 #define IMPLICIT_SDF_MATH_OP_CASES IMPLICIT_SDF_MATH(IMPLICIT_SDF_OP_MATH_CASE)
 
-// Whether a clause writes a point (else a scalar).
+// Whether a clause writes a point (else a scalar or a group).
 inline bool is_point_op(sdf_op op) { return op <= sdf_op::mirror; }
+// Whether a clause writes a smooth union group's accumulator.
+inline bool is_group_op(sdf_op op) {
+  return op == sdf_op::smooth_open || op == sdf_op::smooth_add;
+}
 // Number of inputs of a clause (points included).
 int sdf_op_inputs(sdf_op op);
 // Whether input k (0 or 1) of a clause is a point.
@@ -127,6 +137,24 @@ struct sdf_box_point {
   float    radius = 0;
 };
 
+// The accumulator of a smooth union group (sdf_tape_eval.h adds to it and
+// folds it): the sdf_smooth_group_size smallest values so far, sorted, and
+// whether one was NaN. No initializers: smooth_open sets them, so a register
+// file of accumulators costs nothing to declare.
+struct sdf_smooth_floats {
+  float v[sdf_smooth_group_size];
+  int   count;
+  bool  nan;
+};
+// Over a box: the lower and upper ends, whether one may be NaN, and the
+// hull of the gradients of the operands that may matter (dual intervals).
+struct sdf_smooth_intervals {
+  sdf_smooth_floats lo, hi;
+  bool              entire;
+  float             least_hi;
+  interval          d[3];
+};
+
 // -----------------------------------------------------------------------------
 // TAPES
 // -----------------------------------------------------------------------------
@@ -135,6 +163,7 @@ struct sdf_box_point {
 // stops at 255); points are few (one per live domain operator or map).
 inline constexpr int sdf_max_registers = 256;
 inline constexpr int sdf_max_points    = 64;
+inline constexpr int sdf_max_groups    = 16;  // accumulators open at once
 
 // A compiled program. Clause ranges of other tapes (the per-cell tapes of an
 // sdf_field) are evaluated with this tape's nodes and maps: it is their pool.

@@ -637,6 +637,164 @@ inline dual<interval> sdf_constant(float value, const dual<interval>*) {
 }
 
 // -----------------------------------------------------------------------------
+// SMOOTH UNION GROUPS (sdf_program.h): the sdf_smooth_group_size smallest
+// operand values, kept sorted as they come, folded from the smallest
+// -----------------------------------------------------------------------------
+
+// The smallest floats so far (sdf_smooth_floats); NaN poisons.
+inline void smooth_open(sdf_smooth_floats& s) {
+  s.count = 0;
+  s.nan   = false;
+}
+inline void smooth_insert(sdf_smooth_floats& s, float x) {
+  if (x != x) s.nan = true;
+  if (x != x) return;
+  auto i = s.count;
+  if (i < sdf_smooth_group_size) {
+    s.count++;
+  } else if (x < s.v[i - 1]) {
+    i--;
+  } else {
+    return;
+  }
+  for (; i > 0 && s.v[i - 1] > x; i--) s.v[i] = s.v[i - 1];
+  s.v[i] = x;
+}
+inline float smooth_fold(const sdf_smooth_floats& s, float k) {
+  if (s.nan || s.count == 0) return std::numeric_limits<float>::quiet_NaN();
+  return smooth_min_sorted(s.v, s.count, std::max(k, 0.0f));
+}
+
+// Points: the floats; lanes: one per lane.
+inline void smooth_add(sdf_smooth_floats& s, float x, float) {
+  smooth_insert(s, x);
+}
+inline float smooth_close(const sdf_smooth_floats& s, float k) {
+  return smooth_fold(s, k);
+}
+struct sdf_smooth_lanes {
+  sdf_smooth_floats lane[sdf_lane_count];
+};
+inline void smooth_open(sdf_smooth_lanes& s) {
+  for (auto& lane : s.lane) smooth_open(lane);
+}
+inline void smooth_add(sdf_smooth_lanes& s, const sdf_lanes& x, float) {
+  for (auto i = 0; i < sdf_lane_count; i++) smooth_insert(s.lane[i], x.v[i]);
+}
+inline sdf_lanes smooth_close(const sdf_smooth_lanes& s, float k) {
+  auto r = sdf_lanes{};
+  for (auto i = 0; i < sdf_lane_count; i++) r.v[i] = smooth_fold(s.lane[i], k);
+  return r;
+}
+
+// Intervals: the fold is monotone in each operand (order statistics are,
+// and so is the smooth minimum), so it lies between its values at the
+// operands' lower and upper ends. Dual intervals add the hull of the
+// operands' gradients: the fold's partial derivatives are at least 0 and
+// sum to 1 (each smooth minimum's are h/2 and 1 - h/2), so its gradient is a
+// convex combination of theirs; an operand whose lower end lies a blend
+// above an earlier one's upper end has weight 0 everywhere and is left out.
+inline void smooth_open(sdf_smooth_intervals& s) {
+  smooth_open(s.lo);
+  smooth_open(s.hi);
+  s.entire   = false;
+  s.least_hi = flt_inf;
+}
+inline void smooth_add(sdf_smooth_intervals& s, interval x, float) {
+  if (is_entire(x)) s.entire = true;
+  smooth_insert(s.lo, x.lo);
+  smooth_insert(s.hi, x.hi);
+}
+inline interval smooth_close(const sdf_smooth_intervals& s, float k) {
+  if (s.entire) return entire_interval;
+  return make_interval(smooth_fold(s.lo, k), smooth_fold(s.hi, k));
+}
+inline void smooth_add(
+    sdf_smooth_intervals& s, const dual<interval>& x, float k) {
+  if (!(x.v.lo >= s.least_hi + std::max(k, 0.0f))) {
+    for (auto i = 0; i < 3; i++)
+      s.d[i] = s.least_hi == flt_inf ? x.d[i] : join_slopes(s.d[i], x.d[i]);
+  }
+  s.least_hi = std::min(s.least_hi, x.v.hi);
+  smooth_add(s, x.v, k);
+}
+inline dual<interval> smooth_close_dual(
+    const sdf_smooth_intervals& s, float k) {
+  auto value = smooth_close(s, k);
+  if (s.entire) return with_unknown_slope(value);
+  return {value, {s.d[0], s.d[1], s.d[2]}};
+}
+
+// Duals at a point: sorted by value, folded with the binary smooth
+// minimum's exact weights.
+struct sdf_smooth_duals {
+  dual<float> v[sdf_smooth_group_size];
+  int         count;
+  bool        nan;
+};
+inline void smooth_open(sdf_smooth_duals& s) {
+  s.count = 0;
+  s.nan   = false;
+}
+inline void smooth_add(sdf_smooth_duals& s, const dual<float>& x, float) {
+  if (x.v != x.v) s.nan = true;
+  if (x.v != x.v) return;
+  auto i = s.count;
+  if (i < sdf_smooth_group_size) {
+    s.count++;
+  } else if (x.v < s.v[i - 1].v) {
+    i--;
+  } else {
+    return;
+  }
+  for (; i > 0 && s.v[i - 1].v > x.v; i--) s.v[i] = s.v[i - 1];
+  s.v[i] = x;
+}
+inline dual<float> smooth_close(const sdf_smooth_duals& s, float k) {
+  if (s.nan || s.count == 0)
+    return with_unknown_slope(std::numeric_limits<float>::quiet_NaN());
+  auto m = s.v[0];
+  for (auto i = 1; i < s.count; i++)
+    m = csg_smooth_union(m, s.v[i], std::max(k, 0.0f));
+  return m;
+}
+
+// The accumulator of each value type, and closing it into a value.
+template <class T>
+struct sdf_group_type;
+template <>
+struct sdf_group_type<float> {
+  using type = sdf_smooth_floats;
+};
+template <>
+struct sdf_group_type<sdf_lanes> {
+  using type = sdf_smooth_lanes;
+};
+template <>
+struct sdf_group_type<interval> {
+  using type = sdf_smooth_intervals;
+};
+template <>
+struct sdf_group_type<dual<float>> {
+  using type = sdf_smooth_duals;
+};
+template <>
+struct sdf_group_type<dual<interval>> {
+  using type = sdf_smooth_intervals;
+};
+template <class T>
+using sdf_group = typename sdf_group_type<T>::type;
+template <class T>
+inline T close_group(const sdf_group<T>& s, float k) {
+  return smooth_close(s, k);
+}
+template <>
+inline dual<interval> close_group<dual<interval>>(
+    const sdf_smooth_intervals& s, float k) {
+  return smooth_close_dual(s, k);
+}
+
+// -----------------------------------------------------------------------------
 // THE LOOP
 // -----------------------------------------------------------------------------
 
@@ -681,8 +839,8 @@ inline int clause_out(const sdf_ssa&, int index) { return index; }
 // an analytic gradient (dual values only).
 template <class T, class Clause>
 inline void run_sdf_clauses(const sdf_tape& pool, const Clause* begin,
-    const Clause* end, T* values, sdf_point<T>* points, const sdf_point<T>& p,
-    float step) {
+    const Clause* end, T* values, sdf_point<T>* points, sdf_group<T>* groups,
+    const sdf_point<T>& p, float step) {
   using point_t = sdf_point<T>;
   // The mapped point of the last primitive: consecutive primitives in one
   // space map it once.
@@ -744,6 +902,14 @@ inline void run_sdf_clauses(const sdf_tape& pool, const Clause* begin,
       case sdf_op::csg_smooth_subtraction:
         values[out] = csg_smooth_subtraction(values[c->a], values[c->b], k);
         break;
+      case sdf_op::smooth_open: smooth_open(groups[out]); break;
+      case sdf_op::smooth_add:
+        if (out != (int)c->a) groups[out] = groups[c->a];
+        smooth_add(groups[out], values[c->b], k);
+        break;
+      case sdf_op::smooth_close:
+        values[out] = close_group<T>(groups[c->a], k);
+        break;
       case sdf_op::csg_round: values[out] = csg_round(values[c->a], k); break;
       case sdf_op::csg_onion: values[out] = csg_onion(values[c->a], k); break;
       case sdf_op::math_const: values[out] = sdf_constant(k, values); break;
@@ -777,7 +943,8 @@ inline T run_sdf_tape(const sdf_tape& pool, const sdf_clause* begin,
     const sdf_clause* end, const sdf_point<T>& p, float step = 0) {
   T            values[sdf_max_registers];
   sdf_point<T> points[sdf_max_points];
-  run_sdf_clauses(pool, begin, end, values, points, p, step);
+  sdf_group<T> groups[sdf_max_groups];
+  run_sdf_clauses(pool, begin, end, values, points, groups, p, step);
   return values[end[-1].out];
 }
 

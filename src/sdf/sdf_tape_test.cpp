@@ -6,6 +6,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "../math/random.h"
@@ -399,6 +400,126 @@ TEST_CASE("sdf tape: register files") {
       CHECK_THROWS_AS(make_sdf_tape(dag), io_error);
     }
   }
+}
+
+}  // namespace implicit
+
+namespace implicit {
+
+// Spheres of radius 0.3 at `centres`, listed in `order`, smooth-unioned with
+// blend 0.5 as a scene's `operands` list (fold_sdf_operands), or nested
+// left by hand.
+static sdf_program blob_program(const std::vector<vec3f>& centres,
+    const std::vector<int>& order, bool nest) {
+  auto program = sdf_program{};
+  auto roots   = std::vector<int>{};
+  for (auto i : order) {
+    auto sphere   = sdf_node{};
+    sphere.type   = sdf_type::sphere;
+    sphere.radius = 0.3f;
+    roots.push_back(add_transform(program, add_node(program, sphere),
+        frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -centres[i]}));
+  }
+  auto op  = sdf_node{};
+  op.type  = sdf_type::op_smooth_union;
+  op.blend = 0.5f;
+  if (!nest) {
+    fold_sdf_operands(program, roots, op);
+    return program;
+  }
+  auto root = roots[0];
+  for (size_t i = 1; i < roots.size(); i++) {
+    op.left  = root;
+    op.right = roots[i];
+    root     = add_node(program, op);
+  }
+  return program;
+}
+
+TEST_CASE("sdf tape: a smooth union group folds its sorted values") {
+  // 14 spheres, the last 10 at one centre (more than sdf_smooth_group_size
+  // equal values): the value at p folds smooth_min over the 8 smallest
+  // distances in increasing order, whatever the list's order or nesting.
+  auto rng     = make_rng(29);
+  auto centres = std::vector<vec3f>{};
+  for (auto i = 0; i < 14; i++)
+    centres.push_back(
+        i < 4 ? vec3f{uniform(rng, -0.6f, 0.6f), uniform(rng, -0.6f, 0.6f), 0}
+              : vec3f{0.2f, -0.1f, 0.3f});
+  auto order = std::vector<int>{};
+  for (auto i = 0; i < 14; i++) order.push_back(i);
+  auto shuffled =
+      std::vector<int>{9, 2, 13, 0, 5, 11, 3, 7, 1, 12, 4, 10, 8, 6};
+  auto tapes =
+      std::vector<sdf_tape>{make_sdf_tape(blob_program(centres, order, false)),
+          make_sdf_tape(blob_program(centres, shuffled, false)),
+          make_sdf_tape(blob_program(centres, shuffled, true))};
+  auto groups = 0;
+  for (auto& clause : tapes[0].ssa) groups += clause.op == sdf_op::smooth_open;
+  CHECK(groups == 1);
+  for (auto k = 0; k < 200; k++) {
+    auto p = vec3f{uniform(rng, -1.5f, 1.5f), uniform(rng, -1.5f, 1.5f),
+        uniform(rng, -1.5f, 1.5f)};
+    auto d = std::vector<float>{};
+    for (auto& c : centres) {
+      auto q = transform_point(frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, -c}, p);
+      d.push_back(length(q) - 0.3f);
+    }
+    std::sort(d.begin(), d.end());
+    auto expected = smooth_min_sorted(d.data(), sdf_smooth_group_size, 0.5f);
+    for (auto& tape : tapes) {
+      CHECK(eval_sdf(tape, p) == expected);
+      auto batch = 0.0f;
+      eval_sdf(tape, &p, &batch, 1);
+      CHECK(batch == expected);
+      // The gradient: central differences of the value.
+      auto dual = eval_sdf_dual(tape, p);
+      CHECK(dual.v == expected);
+      for (auto a = 0; a < 3; a++) {
+        auto h     = vec3f{0, 0, 0};
+        at(h, a)   = 1e-3f;
+        auto slope = (eval_sdf(tape, p + h) - eval_sdf(tape, p - h)) / 2e-3f;
+        CHECK(at(gradient(dual), a) == doctest::Approx(slope).epsilon(0.02));
+      }
+      // Boxes about p hold it, and their gradients hold its gradient.
+      auto box   = bbox3f{p - 0.05f, p + 0.05f};
+      auto range = eval_sdf_interval(tape, box);
+      auto duals = eval_sdf_dual(tape, box);
+      CHECK(range.lo <= expected);
+      CHECK(expected <= range.hi);
+      for (auto a = 0; a < 3; a++) {
+        CHECK(duals.d[a].lo <= dual.d[a]);
+        CHECK(dual.d[a] <= duals.d[a].hi);
+      }
+    }
+  }
+  // Two operands stay one binary clause (the same function).
+  auto pair = make_sdf_tape(blob_program(centres, {0, 1}, false));
+  for (auto& clause : pair.ssa) CHECK(clause.op != sdf_op::smooth_open);
+}
+
+TEST_CASE("sdf tape: groups nested too deep are refused") {
+  // Each group's first operand (the one needing most registers) is a
+  // balanced union of 16 spheres, its second the group of another blend
+  // below it: the accumulators of 20 groups are open at once.
+  auto program = sdf_program{};
+  auto sphere  = sdf_node{};
+  sphere.type  = sdf_type::sphere;
+  auto inner   = add_node(program, sphere);
+  for (auto level = 0; level < 20; level++) {
+    auto spheres = std::vector<int>{};
+    for (auto i = 0; i < 16; i++) spheres.push_back(add_node(program, sphere));
+    auto hard = sdf_node{};
+    hard.type = sdf_type::op_union;
+    auto big  = fold_sdf_operands(program, spheres, hard);
+    auto op   = sdf_node{};
+    op.type   = sdf_type::op_smooth_union;
+    op.blend  = 0.1f + 0.01f * level;
+    inner =
+        fold_sdf_operands(program, {big, inner, add_node(program, sphere)}, op);
+  }
+  CHECK_THROWS_WITH_AS(make_sdf_tape(program),
+      doctest::Contains("smooth union groups"), io_error);
 }
 
 }  // namespace implicit

@@ -262,7 +262,8 @@ static march_result march_object(const accel_data& accel,
         auto& tape = field.full;
         return march([&](vec3f p) { return eval_sdf(tape, p); });
       }
-      return march([&](vec3f p) { return eval_sdf(field, p); });
+      auto cursor = sdf_field_cursor{};
+      return march([&](vec3f p) { return eval_sdf(field, p, cursor); });
     }
     case object_kind::grid: {
       auto& grid = *object.grid;
