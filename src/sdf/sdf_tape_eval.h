@@ -641,24 +641,34 @@ inline dual<interval> sdf_constant(float value, const dual<interval>*) {
 // operand values, kept sorted as they come, folded from the smallest
 // -----------------------------------------------------------------------------
 
-// The smallest floats so far (sdf_smooth_floats); NaN poisons.
+// Put x among the sdf_smooth_group_size smallest values `v[0, count)`,
+// kept sorted by their value (floats, or duals by theirs); NaN poisons.
+inline float sort_value(float x) { return x; }
+inline float sort_value(const dual<float>& x) { return x.v; }
+template <class S, class V>
+inline void insert_smallest(S& s, const V& x) {
+  auto key = sort_value(x);
+  if (key != key) s.nan = true;
+  if (key != key) return;
+  auto i = s.count;
+  if (i < sdf_smooth_group_size) {
+    s.count++;
+  } else if (key < sort_value(s.v[i - 1])) {
+    i--;
+  } else {
+    return;
+  }
+  for (; i > 0 && sort_value(s.v[i - 1]) > key; i--) s.v[i] = s.v[i - 1];
+  s.v[i] = x;
+}
+
+// The smallest floats so far (sdf_smooth_floats).
 inline void smooth_open(sdf_smooth_floats& s) {
   s.count = 0;
   s.nan   = false;
 }
 inline void smooth_insert(sdf_smooth_floats& s, float x) {
-  if (x != x) s.nan = true;
-  if (x != x) return;
-  auto i = s.count;
-  if (i < sdf_smooth_group_size) {
-    s.count++;
-  } else if (x < s.v[i - 1]) {
-    i--;
-  } else {
-    return;
-  }
-  for (; i > 0 && s.v[i - 1] > x; i--) s.v[i] = s.v[i - 1];
-  s.v[i] = x;
+  insert_smallest(s, x);
 }
 inline float smooth_fold(const sdf_smooth_floats& s, float k) {
   if (s.nan || s.count == 0) return std::numeric_limits<float>::quiet_NaN();
@@ -699,6 +709,7 @@ inline void smooth_open(sdf_smooth_intervals& s) {
   smooth_open(s.hi);
   s.entire   = false;
   s.least_hi = flt_inf;
+  s.d[0] = s.d[1] = s.d[2] = interval{0};  // no operand may matter yet
 }
 inline void smooth_add(sdf_smooth_intervals& s, interval x, float) {
   if (is_entire(x)) s.entire = true;
@@ -737,18 +748,7 @@ inline void smooth_open(sdf_smooth_duals& s) {
   s.nan   = false;
 }
 inline void smooth_add(sdf_smooth_duals& s, const dual<float>& x, float) {
-  if (x.v != x.v) s.nan = true;
-  if (x.v != x.v) return;
-  auto i = s.count;
-  if (i < sdf_smooth_group_size) {
-    s.count++;
-  } else if (x.v < s.v[i - 1].v) {
-    i--;
-  } else {
-    return;
-  }
-  for (; i > 0 && s.v[i - 1].v > x.v; i--) s.v[i] = s.v[i - 1];
-  s.v[i] = x;
+  insert_smallest(s, x);
 }
 inline dual<float> smooth_close(const sdf_smooth_duals& s, float k) {
   if (s.nan || s.count == 0)
@@ -757,41 +757,6 @@ inline dual<float> smooth_close(const sdf_smooth_duals& s, float k) {
   for (auto i = 1; i < s.count; i++)
     m = csg_smooth_union(m, s.v[i], std::max(k, 0.0f));
   return m;
-}
-
-// The accumulator of each value type, and closing it into a value.
-template <class T>
-struct sdf_group_type;
-template <>
-struct sdf_group_type<float> {
-  using type = sdf_smooth_floats;
-};
-template <>
-struct sdf_group_type<sdf_lanes> {
-  using type = sdf_smooth_lanes;
-};
-template <>
-struct sdf_group_type<interval> {
-  using type = sdf_smooth_intervals;
-};
-template <>
-struct sdf_group_type<dual<float>> {
-  using type = sdf_smooth_duals;
-};
-template <>
-struct sdf_group_type<dual<interval>> {
-  using type = sdf_smooth_intervals;
-};
-template <class T>
-using sdf_group = typename sdf_group_type<T>::type;
-template <class T>
-inline T close_group(const sdf_group<T>& s, float k) {
-  return smooth_close(s, k);
-}
-template <>
-inline dual<interval> close_group<dual<interval>>(
-    const sdf_smooth_intervals& s, float k) {
-  return smooth_close_dual(s, k);
 }
 
 // -----------------------------------------------------------------------------
@@ -804,30 +769,49 @@ inline P map_shape_point(const sdf_tape& pool, int frame, const P& p) {
   return map_point(pool, frame, p);
 }
 
+// The point and the group accumulator of each value type.
 template <class T>
-struct sdf_point_type;
+struct sdf_value_types;
 template <>
-struct sdf_point_type<float> {
-  using type = vec3f;
+struct sdf_value_types<float> {
+  using point = vec3f;
+  using group = sdf_smooth_floats;
 };
 template <>
-struct sdf_point_type<sdf_lanes> {
-  using type = sdf_lane_points;
+struct sdf_value_types<sdf_lanes> {
+  using point = sdf_lane_points;
+  using group = sdf_smooth_lanes;
 };
 template <>
-struct sdf_point_type<interval> {
-  using type = sdf_box_point;
+struct sdf_value_types<interval> {
+  using point = sdf_box_point;
+  using group = sdf_smooth_intervals;
 };
 template <>
-struct sdf_point_type<dual<float>> {
-  using type = sdf_vec3<dual<float>>;
+struct sdf_value_types<dual<float>> {
+  using point = sdf_vec3<dual<float>>;
+  using group = sdf_smooth_duals;
 };
 template <>
-struct sdf_point_type<dual<interval>> {
-  using type = sdf_dual_box_point;
+struct sdf_value_types<dual<interval>> {
+  using point = sdf_dual_box_point;
+  using group = sdf_smooth_intervals;
 };
 template <class T>
-using sdf_point = typename sdf_point_type<T>::type;
+using sdf_point = typename sdf_value_types<T>::point;
+template <class T>
+using sdf_group = typename sdf_value_types<T>::group;
+
+// Closing a group's accumulator into a value.
+template <class T>
+inline T close_group(const sdf_group<T>& s, float k) {
+  return smooth_close(s, k);
+}
+template <>
+inline dual<interval> close_group<dual<interval>>(
+    const sdf_smooth_intervals& s, float k) {
+  return smooth_close_dual(s, k);
+}
 
 // Where a clause writes: its register, or its own index in an SSA list.
 inline int clause_out(const sdf_clause& clause, int) { return clause.out; }
