@@ -120,6 +120,63 @@ inline float sphere_cone_size(float r2, float d2) {
   return sin2 / (1 + std::sqrt(std::max(0.0f, 1 - sin2)));
 }
 
+// -----------------------------------------------------------------------------
+// SPHERICAL RECTANGLES (Urena, Fajardo and King 2013, "An Area-Preserving
+// Parametrization for Spherical Rectangles")
+// -----------------------------------------------------------------------------
+
+// The rectangle [x0, x1] x [y0, y1] of the plane z = z0 != 0, seen from the
+// origin, prepared for points uniform in its solid angle. The four interior
+// angles of the spherical rectangle are kept as their excess over pi/2, each
+// an atan2 of the corner's products (no acos, no difference of sums near
+// 2 pi, so nearly edge-on rectangles keep their precision), by atan2_fast:
+// the solid angle is within 2e-6 sr, so callers use it where a rectangle
+// looks large (box lights: above 0.3 sr) and sample small ones by area.
+struct spherical_rectangle {
+  float x0 = 0, x1 = 0, y0 = 0, y1 = 0, z0 = 0;
+  float b0 = 0, b1 = 0;   // z of the edge planes' normals at y0 and y1
+  float start       = 0;  // the angle where the parametrization begins
+  float solid_angle = 0;
+};
+
+inline spherical_rectangle make_spherical_rectangle(
+    float x0, float x1, float y0, float y1, float z0) {
+  auto rect = spherical_rectangle{x0, x1, y0, y1, z0};
+  auto h = std::abs(z0), z2 = z0 * z0;
+  auto corner = [&](float x, float y, float product) {
+    return atan2_fast(product, h * std::sqrt(x * x + y * y + z2));
+  };
+  auto excess10 = corner(x1, y0, -y0 * x1), excess11 = corner(x1, y1, x1 * y1);
+  auto excess01 = corner(x0, y1, -x0 * y1), excess00 = corner(x0, y0, x0 * y0);
+  rect.b0          = -y0 / std::sqrt(y0 * y0 + z2);
+  rect.b1          = y1 / std::sqrt(y1 * y1 + z2);
+  rect.start       = -(excess01 + excess00);
+  rect.solid_angle = excess10 + excess11 + excess01 + excess00;
+  return rect;
+}
+
+// Point of the rectangle (z = z0) whose direction is uniform in the solid
+// angle: pdf 1 / solid_angle.
+inline vec3f sample_spherical_rectangle(
+    const spherical_rectangle& rect, vec2f ruv) {
+  // The angle that cuts off a fraction ruv.x of the solid angle, as the
+  // paper's a_u = pi + phi, gives the column x.
+  auto phi = rect.start + ruv.x * rect.solid_angle;
+  auto fu  = (std::cos(phi) * rect.b0 + rect.b1) / std::sin(phi);
+  auto cu =
+      clamp(std::copysign(1.0f, fu) / std::sqrt(fu * fu + rect.b0 * rect.b0),
+          -1.0f, 1.0f);
+  auto x = cu * std::abs(rect.z0) / std::sqrt(std::max(1 - cu * cu, 1e-12f));
+  x      = std::isnan(x) ? rect.x0 : clamp(x, rect.x0, rect.x1);
+  // Along the column, y is uniform in the sine of its elevation.
+  auto d  = std::sqrt(x * x + rect.z0 * rect.z0);
+  auto h0 = rect.y0 / std::sqrt(d * d + rect.y0 * rect.y0);
+  auto h1 = rect.y1 / std::sqrt(d * d + rect.y1 * rect.y1);
+  auto hv = h0 + ruv.y * (h1 - h0);
+  auto y  = hv * hv < 1 - 1e-6f ? hv * d / std::sqrt(1 - hv * hv) : rect.y1;
+  return {x, clamp(y, rect.y0, rect.y1), rect.z0};
+}
+
 // Index from a cumulative distribution (cdf.back() is the total weight).
 inline int sample_discrete(const std::vector<float>& cdf, float r) {
   r        = clamp(r * cdf.back(), 0.0f, cdf.back() - 1e-6f * cdf.back());

@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <limits>
+#include <tuple>
+#include <vector>
 
 #include "random.h"
 
@@ -109,4 +111,75 @@ TEST_CASE("sampling: latlong_uv inverts latlong_direction") {
   }
   MESSAGE("latlong round trip max uv error: ", max_error);
   CHECK(max_error < 2e-6f);
+}
+
+// Solid angle of the rectangle [x0, x1] x [y0, y1] at z = z0 seen from the
+// origin by the midpoint rule over n x n cells: the integral of |z0| / r^3.
+static double solid_angle_by_cells(
+    double x0, double x1, double y0, double y1, double z0, int n) {
+  auto sum = 0.0, dx = (x1 - x0) / n, dy = (y1 - y0) / n;
+  for (auto i = 0; i < n; i++)
+    for (auto j = 0; j < n; j++) {
+      auto x = x0 + (i + 0.5) * dx, y = y0 + (j + 0.5) * dy;
+      auto r = std::sqrt(x * x + y * y + z0 * z0);
+      sum += std::abs(z0) / (r * r * r) * dx * dy;
+    }
+  return sum;
+}
+
+TEST_CASE("sampling: a spherical rectangle's solid angle") {
+  // Centred 2a x 2b at height h: 4 asin(ab / sqrt((a^2 + h^2)(b^2 + h^2))).
+  for (auto [a, b, h] : {std::tuple{1.0, 1.0, 1.0}, {0.3, 2.0, 0.1},
+           {1e-3, 2e-3, 5.0}, {50.0, 50.0, 0.01}}) {
+    auto exact =
+        4 * std::asin(a * b / std::sqrt((a * a + h * h) * (b * b + h * h)));
+    for (auto z0 : {-h, h}) {
+      auto rect = make_spherical_rectangle(
+          (float)-a, (float)a, (float)-b, (float)b, (float)z0);
+      CHECK(std::abs(rect.solid_angle - exact) <= 2e-6 + 1e-5 * exact);
+    }
+  }
+  // Off to a side and nearly edge-on, against the midpoint rule.
+  for (auto [x0, x1, y0, y1, z0] : {std::tuple{0.2, 1.5, -0.3, 0.8, -0.7},
+           {-2.0, -0.5, 0.1, 0.4, 0.05}, {1.0, 3.0, 1.0, 2.0, -0.02}}) {
+    auto rect = make_spherical_rectangle(
+        (float)x0, (float)x1, (float)y0, (float)y1, (float)z0);
+    CHECK(rect.solid_angle ==
+          doctest::Approx(solid_angle_by_cells(x0, x1, y0, y1, z0, 2000))
+              .epsilon(1e-4));
+  }
+}
+
+TEST_CASE("sampling: spherical rectangle points are uniform in solid angle") {
+  // Points land on the rectangle, and each of 4 x 4 cells receives its
+  // solid angle's share (midpoint rule) within 5 standard deviations.
+  auto rng = make_rng(5);
+  for (auto [x0, x1, y0, y1, z0] :
+      {std::tuple{-1.0, 1.0, -0.5, 0.7, -0.3}, {0.2, 1.5, -0.3, 0.8, 0.7},
+          {-3.0, -0.1, 0.5, 0.9, -0.05}, {-0.25, 0.25, -0.2, 0.2, -1.2}}) {
+    auto rect = make_spherical_rectangle(
+        (float)x0, (float)x1, (float)y0, (float)y1, (float)z0);
+    auto total  = solid_angle_by_cells(x0, x1, y0, y1, z0, 1200);
+    auto counts = std::vector<int>(16, 0);
+    auto n      = 200000;
+    for (auto k = 0; k < n; k++) {
+      auto p = sample_spherical_rectangle(rect, rand2f(rng));
+      REQUIRE(p.z == (float)z0);
+      REQUIRE((p.x >= (float)x0 && p.x <= (float)x1));
+      REQUIRE((p.y >= (float)y0 && p.y <= (float)y1));
+      auto i = std::min(3, (int)((p.x - x0) / (x1 - x0) * 4));
+      auto j = std::min(3, (int)((p.y - y0) / (y1 - y0) * 4));
+      counts[i * 4 + j]++;
+    }
+    for (auto i = 0; i < 4; i++)
+      for (auto j = 0; j < 4; j++) {
+        auto dx = (x1 - x0) / 4, dy = (y1 - y0) / 4;
+        auto share = solid_angle_by_cells(x0 + i * dx, x0 + (i + 1) * dx,
+                         y0 + j * dy, y0 + (j + 1) * dy, z0, 300) /
+                     total;
+        auto expected = n * share;
+        CHECK(std::abs(counts[i * 4 + j] - expected) <=
+              5 * std::sqrt(expected) + 1);
+      }
+  }
 }

@@ -3,12 +3,14 @@
 // Every bounded emissive object is a light, whatever its kind (analytic
 // primitive, CSG part, grid, user function): it is sampled by directions
 // uniform in the cone of a sphere around its emitting surface (for a sphere,
-// the sphere itself: the exact visible cap), except rigid boxes, sampled by
-// points on the faces that look at the shading point. Environments are
-// constant, or lat-long textures importance sampled by texel luminance times
-// sin(theta), summed over cells of at most 2^17 per image, as coarse as the
-// image allows, through an alias table. Unbounded emitters (planes) are left
-// to BSDF sampling, which reaches them with full weight.
+// the sphere itself: the exact visible cap), except rigid boxes, sampled on
+// the faces that look at the shading point (uniformly in solid angle where a
+// face looks large, by area elsewhere). Environments are constant, or
+// lat-long textures importance sampled by texel luminance times sin(theta),
+// summed over cells of at most 2^17 per image, as coarse as the image
+// allows, through an alias table. Unbounded emitters (planes), and constant
+// environments beside shape lights (bvh and power selection), are left to
+// BSDF sampling, which reaches them with full weight.
 //
 // One light is picked per sample: by a BVH over the lights' bounds, power
 // and normals (light_tree.h), by power, or uniformly (the seed's way), with
@@ -79,6 +81,10 @@ struct lights_data {
   light_tree       tree          = {};
   // Cumulative power of the shape lights (power selection).
   std::vector<float> power_cdf = {};
+  // The environment lights that bvh and power selection pick: the textured
+  // ones (a constant one is left to BSDF samples, see environment_share),
+  // or all when there is no shape light.
+  std::vector<int> picked_environments = {};
   // Inverse frame of every scene environment (lights or not), so that
   // escaped rays need no 3x3 inverse.
   std::vector<frame3f> env_from_world = {};
@@ -146,7 +152,8 @@ light_sample sample_lights(const scene_data& scene, const accel_data& accel,
 // f E_k w_b / p_b, with w_l = p_k^2 / (p_k^2 + p_b^2) and w_b = p_b^2 /
 // (p_k^2 + p_b^2). Their expected sum is the integral of f E_k (w_l + w_b):
 // where p_k > 0 the weights sum to 1; where p_k = 0 (outside the cone, a
-// light the tree gives no chance at x, an emitter that is no light) the light
+// light the tree gives no chance at x, a constant environment that is never
+// picked, an emitter that is no light) the light
 // sample never lands and w_b = 1; where f > 0 the BSDF has p_b > 0. So the sum
 // is I_k for every k, whatever the cone, the pick probabilities or the
 // survey's accuracy, provided the pdf used in w_b is the density that

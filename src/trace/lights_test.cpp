@@ -145,8 +145,10 @@ TEST_CASE("lights: box and sphere light pdfs integrate to 1") {
   CHECK(lights.lights[0].shape == light_shape::box);
   CHECK(lights.lights[1].shape == light_shape::box);
   CHECK(lights.lights[2].shape == light_shape::cone);
-  // From outside all, and from inside the solid box and the sphere.
+  // From outside all, near the flat box's face and the solid box's top
+  // (sampled in solid angle), and from inside the solid box and the sphere.
   for (auto position : {vec3f{0, 0, 0}, vec3f{0.3f, 0.1f, -0.2f},
+           vec3f{0.05f, 0.45f, 1.05f}, vec3f{-0.85f, -0.2f, -0.6f},
            vec3f{-0.9f, -0.4f, -0.7f}, vec3f{1.1f, 0.9f, -1}}) {
     for (auto sampler : {light_sampler_type::bvh, light_sampler_type::power,
              light_sampler_type::uniform}) {
@@ -361,6 +363,18 @@ TEST_CASE("lights: samples of every kind of emitter are unbiased") {
     scene.sdfunctions.push_back(emitter(box, {-0.25f, 1.5f, -0.2f}));
     check_light_estimate(scene, {0, 0, 0}, above);
   }
+  SUBCASE("boxes up close, sampled in solid angle") {
+    // A flat lamp 0.15 above the point (about 2 sr) and a solid box's
+    // face 0.1 beside it: both look larger than the solid-angle threshold.
+    auto scene = emissive_scene();
+    auto box   = make_node(sdf_type::box);
+    box.size   = {0.5f, 1e-5f, 0.4f};
+    scene.sdfunctions.push_back(emitter(box, {-0.3f, 0.15f, -0.15f}));
+    box.size = {0.3f, 0.4f, 0.2f};
+    scene.sdfunctions.push_back(emitter(box, {0.1f, -0.1f, -0.05f}));
+    // Lights this large are found as well by cosine samples: no gain asked.
+    check_light_estimate(scene, {0, 0, 0}, above, false);
+  }
   SUBCASE("rotated and scaled shapes") {
     auto scene    = emissive_scene();
     auto torus    = make_node(sdf_type::torus);
@@ -500,9 +514,16 @@ TEST_CASE("lights: pick probabilities sum to 1 with environments") {
     for (auto k = 0; k < 7; k++)
       total += pick_light_probability(lights, context, k);
     CHECK(total == doctest::Approx(1.0).epsilon(1e-5));
-    if (sampler != light_sampler_type::uniform)
+    if (sampler != light_sampler_type::uniform) {
+      // One share for the textured environment, one for the shapes; the
+      // constant one is left to BSDF samples and never picked.
       CHECK(pick_light_probability(lights, context, 5) ==
-            doctest::Approx(1 / 3.0f));  // one share per environment
+            doctest::Approx(1 / 2.0f));
+      CHECK(pick_light_probability(lights, context, 6) == 0);
+      auto rng = make_rng(9);
+      for (auto s = 0; s < 2000; s++)
+        CHECK(draw_light(scene, accel, lights, context, rng).light != 6);
+    }
     // The mixture pdf is the sum of the lights' pdfs.
     auto rng = make_rng(4);
     for (auto s = 0; s < 200; s++) {
