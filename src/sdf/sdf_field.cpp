@@ -328,6 +328,45 @@ int find_sdf_cell(const sdf_field& field, vec3f p) {
   return find_sdf_cell(field, p, box);
 }
 
+static bool inside_half_open(const bbox3f& b, vec3f p) {
+  return p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y && p.y < b.max.y &&
+         p.z >= b.min.z && p.z < b.max.z;
+}
+
+int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
+  auto& c = cursor;
+  c.cell  = invalidid;
+  if (!field.octree || !inside(field.box, p)) return invalidid;
+  // The deepest kept ancestor that holds p (the root holds it: p is inside).
+  auto k = c.count - 1;
+  while (k > 0 && !inside_half_open(c.boxes[k], p)) k--;
+  if (k <= 0) {
+    k          = 0;
+    c.path[0]  = 0;
+    c.boxes[0] = field.box;
+  }
+  auto cell = c.path[k];
+  auto box  = c.boxes[k];
+  c.count   = k + 1;
+  while (true) {
+    auto children = get_sdf_cell(field, cell).children;
+    if (children < 0) break;
+    auto mid    = (box.min + box.max) * 0.5f;
+    auto octant = (p.x >= mid.x ? 1 : 0) | (p.y >= mid.y ? 2 : 0) |
+                  (p.z >= mid.z ? 4 : 0);
+    box  = octant_box(box, octant);
+    cell = children + octant;
+    if (c.count < sdf_cursor_depth) {
+      c.path[c.count]  = cell;
+      c.boxes[c.count] = box;
+      c.count++;
+    }
+  }
+  c.cell = cell;
+  c.box  = box;
+  return cell;
+}
+
 interval eval_sdf_cell_interval(
     const sdf_field& field, int cell, const bbox3f& box) {
   if (cell < 0) return eval_sdf_interval(field.full, box);

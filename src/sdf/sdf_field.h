@@ -92,13 +92,17 @@ int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box);
 // was not. The reference stays valid while the field's octree lives.
 const sdf_cell& get_sdf_cell(const sdf_field& field, int cell);
 
+// Value at a local point with the tape of a leaf (its bound if constant).
+inline float eval_sdf_leaf(
+    const sdf_field& field, const sdf_cell& leaf, vec3f p) {
+  if (leaf.count == 0) return leaf.bound;
+  return eval_sdf(field.full, leaf.clauses, leaf.clauses + leaf.count, p);
+}
 // Value at a local point with the tape of cell `cell` (a leaf from
 // find_sdf_cell, or invalidid for the whole tape). Allocates nothing.
 inline float eval_sdf_cell(const sdf_field& field, int cell, vec3f p) {
   if (cell < 0) return eval_sdf(field.full, p);
-  auto& leaf = get_sdf_cell(field, cell);
-  if (leaf.count == 0) return leaf.bound;
-  return eval_sdf(field.full, leaf.clauses, leaf.clauses + leaf.count, p);
+  return eval_sdf_leaf(field, get_sdf_cell(field, cell), p);
 }
 
 // Distance bound at a local point: exact near the surface, see sdf_cell.
@@ -107,19 +111,28 @@ inline float eval_sdf(const sdf_field& field, vec3f p) {
 }
 
 // The leaf that the last point of a walk fell in (a march along a ray moves
-// a little at a time): the next point inside its box skips the descent from
-// the root. Boxes are half open, [min, max), as find_sdf_cell splits them,
-// so the leaf is the one it would find.
+// a little at a time), and its ancestors: the next point inside the leaf's
+// box skips the descent, and one inside an ancestor's box descends from
+// there, not from the root. Boxes are half open, [min, max), as
+// find_sdf_cell splits them, so the leaf is the one it would find: a point
+// in a cell's half-open box lies on its side of every split above it.
+inline constexpr int sdf_cursor_depth = 16;  // ancestors kept, from the root
 struct sdf_field_cursor {
-  int    cell = invalidid;
-  bbox3f box  = {};
+  int    cell  = invalidid;  // the leaf
+  bbox3f box   = {};         // its box
+  int    count = 0;  // cells kept: path[0] the root, down the leaf's path
+  int    path[sdf_cursor_depth]  = {};
+  bbox3f boxes[sdf_cursor_depth] = {};
 };
+// The leaf holding p (invalidid outside the field), from the cursor's path;
+// updates the cursor.
+int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor);
 inline float eval_sdf(
     const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
   auto& b = cursor.box;
   if (!(cursor.cell >= 0 && p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y &&
           p.y < b.max.y && p.z >= b.min.z && p.z < b.max.z))
-    cursor.cell = find_sdf_cell(field, p, cursor.box);
+    find_sdf_cell(field, p, cursor);
   return eval_sdf_cell(field, cursor.cell, p);
 }
 

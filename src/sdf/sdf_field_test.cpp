@@ -421,4 +421,44 @@ TEST_CASE("sdf prune: a smooth blob keeps a few operands per cell") {
   }
 }
 
+TEST_CASE("sdf field: a cursor finds the leaf a search from the root finds") {
+  // Walks of small steps (the cursor climbs a level or two), jumps, points
+  // on split planes (octant boundaries are half open) and on the box's
+  // upper faces (inside the field, outside every half-open box there).
+  auto rng          = make_rng(23);
+  auto program      = random_model(rng, 200, {sdf_type::op_union}, 0.1f, 0.05f);
+  auto box          = bbox3f{{-1, -1, -1}, {1, 1, 1}};
+  auto params       = sdf_field_params{};
+  params.leaf_nodes = 1;
+  params.max_depth  = 6;
+  auto field        = make_sdf_field(program, box, params);
+  REQUIRE((bool)field.octree);
+  auto cursor = sdf_field_cursor{};
+  auto p      = vec3f{0, 0, 0};
+  auto deep   = 0;
+  for (auto k = 0; k < 20000; k++) {
+    auto r = rand1f(rng);
+    if (r < 0.8f) {
+      p = clamp(p + uniform3(rng, -0.02f, 0.02f), -1.0f, 1.0f);
+    } else if (r < 0.9f) {
+      p = uniform3(rng, -1.1f, 1.1f);  // some outside
+    } else {
+      // Octant planes at depth 1 to 6: multiples of 2^-d, exact in float.
+      auto step                     = std::ldexp(1.0f, -(int)(rand1f(rng) * 6));
+      p                             = uniform3(rng, -1, 1);
+      at(p, (int)(rand1f(rng) * 3)) = std::round(p.x / step) * step;
+      if (rand1f(rng) < 0.2f) at(p, (int)(rand1f(rng) * 3)) = 1;
+    }
+    auto expected_box = bbox3f{};
+    auto expected     = find_sdf_cell(field, p, expected_box);
+    auto found        = find_sdf_cell(field, p, cursor);
+    REQUIRE(found == expected);
+    if (expected < 0) continue;
+    CHECK(cursor.box.min == expected_box.min);
+    CHECK(cursor.box.max == expected_box.max);
+    deep += cursor.count >= 5;
+  }
+  CHECK(deep > 1000);
+}
+
 }  // namespace implicit

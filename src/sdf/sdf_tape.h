@@ -218,6 +218,10 @@ void eval_sdf(const sdf_tape& pool, const sdf_clause* begin,
 dual<float> eval_sdf_dual(const sdf_tape& pool, const sdf_clause* begin,
     const sdf_clause* end, vec3f p);
 dual<float> eval_sdf_dual(const sdf_tape& tape, vec3f p);
+// Value and derivative along `direction` (d/dt at p + t direction) at a
+// point: the gradient's dot product with it, for a third of the work.
+dual<float, 1> eval_sdf_slope(const sdf_tape& pool, const sdf_clause* begin,
+    const sdf_clause* end, vec3f p, vec3f direction);
 // Values and gradients at `count` points.
 void eval_sdf_gradients(const sdf_tape& tape, const vec3f* points,
     float* values, vec3f* gradients, size_t count);
@@ -233,6 +237,12 @@ interval eval_sdf_interval(const sdf_tape& tape, const bbox3f& box);
 dual<interval> eval_sdf_dual(const sdf_tape& pool, const sdf_clause* begin,
     const sdf_clause* end, const bbox3f& box);
 dual<interval> eval_sdf_dual(const sdf_tape& tape, const bbox3f& box);
+// Intervals of the value and of its derivative along `direction` over a box
+// (a box around a piece of a ray: a bound of df/dt along it, as tight as the
+// partials' hull projected on the direction or tighter, for a third of the
+// work).
+dual<interval, 1> eval_sdf_slope(const sdf_tape& pool, const sdf_clause* begin,
+    const sdf_clause* end, const bbox3f& box, vec3f direction);
 // A Lipschitz bound over a box: the largest gradient length there, +inf
 // where a derivative is unbounded (a jump of floor, round, mod or repeat,
 // sqrt or ln at 0, a value that may be NaN).

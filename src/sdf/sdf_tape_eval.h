@@ -56,9 +56,11 @@ template <class C>
 struct sdf_lift {
   static C make(float value) { return C(value); }
 };
-template <class T>
-struct sdf_lift<dual<T>> {
-  static dual<T> make(float value) { return make_dual_constant(T(value)); }
+template <class T, int N>
+struct sdf_lift<dual<T, N>> {
+  static dual<T, N> make(float value) {
+    return make_dual_constant<N>(T(value));
+  }
 };
 template <class C>
 inline C lift(float value) {
@@ -447,95 +449,101 @@ inline constexpr float sdf_shape_step = 1e-4f;
 // tell which, the hull of both (a box). The smooth minimum's partials are
 // 1 - h/2 on the smaller operand and h/2 on the other, so its gradient is a
 // convex combination of theirs: within their hull.
-template <class T>
-inline dual<T> with_slopes(const T& value, const dual<T>& a) {
-  return {value, {a.d[0], a.d[1], a.d[2]}};
-}
-template <class T>
-inline dual<T> join_duals(const T& value, const dual<T>& a, const dual<T>& b) {
-  auto r = dual<T>{value};
-  for (auto i = 0; i < 3; i++) r.d[i] = join_slopes(a.d[i], b.d[i]);
+template <class T, int N>
+inline dual<T, N> with_slopes(const T& value, const dual<T, N>& a) {
+  auto r = a;
+  r.v    = value;
   return r;
 }
-template <class T>
-inline dual<T> csg_union(const dual<T>& a, const dual<T>& b) {
+template <class T, int N>
+inline dual<T, N> join_duals(
+    const T& value, const dual<T, N>& a, const dual<T, N>& b) {
+  auto r = dual<T, N>{value};
+  for (auto i = 0; i < N; i++) r.d[i] = join_slopes(a.d[i], b.d[i]);
+  return r;
+}
+template <class T, int N>
+inline dual<T, N> csg_union(const dual<T, N>& a, const dual<T, N>& b) {
   auto value = csg_union(a.v, b.v);
-  if (may_be_nan(a.v) || may_be_nan(b.v)) return with_unknown_slope(value);
+  if (may_be_nan(a.v) || may_be_nan(b.v)) return with_unknown_slope<N>(value);
   if (always_less(b.v, a.v)) return with_slopes(value, b);
   if (always_less_equal(a.v, b.v)) return with_slopes(value, a);
   return join_duals(value, a, b);
 }
-template <class T>
-inline dual<T> csg_intersection(const dual<T>& a, const dual<T>& b) {
+template <class T, int N>
+inline dual<T, N> csg_intersection(const dual<T, N>& a, const dual<T, N>& b) {
   auto value = csg_intersection(a.v, b.v);
-  if (may_be_nan(a.v) || may_be_nan(b.v)) return with_unknown_slope(value);
+  if (may_be_nan(a.v) || may_be_nan(b.v)) return with_unknown_slope<N>(value);
   if (always_less(a.v, b.v)) return with_slopes(value, b);
   if (always_less_equal(b.v, a.v)) return with_slopes(value, a);
   return join_duals(value, a, b);
 }
-template <class T>
-inline dual<T> csg_subtraction(const dual<T>& a, const dual<T>& b) {
+template <class T, int N>
+inline dual<T, N> csg_subtraction(const dual<T, N>& a, const dual<T, N>& b) {
   return csg_intersection(a, math_neg(b));
 }
 // Smooth blend of slopes: exact weights at a point, the hull over a box.
-inline dual<float> blend_duals(
-    float value, const dual<float>& a, const dual<float>& b, float k) {
+template <int N>
+inline dual<float, N> blend_duals(
+    float value, const dual<float, N>& a, const dual<float, N>& b, float k) {
   auto h     = std::max(k - std::abs(a.v - b.v), 0.0f) / k;
   auto small = b.v < a.v ? b : a;
   auto large = b.v < a.v ? a : b;
-  auto r     = dual<float>{value};
-  for (auto i = 0; i < 3; i++)
+  auto r     = dual<float, N>{value};
+  for (auto i = 0; i < N; i++)
     r.d[i] = (1 - h * 0.5f) * small.d[i] + h * 0.5f * large.d[i];
   return r;
 }
-inline dual<interval> blend_duals(
-    interval value, const dual<interval>& a, const dual<interval>& b, float) {
+template <int N>
+inline dual<interval, N> blend_duals(interval value, const dual<interval, N>& a,
+    const dual<interval, N>& b, float) {
   return join_duals(value, a, b);
 }
-template <class T>
-inline dual<T> csg_smooth_union(const dual<T>& a, const dual<T>& b, float k) {
+template <class T, int N>
+inline dual<T, N> csg_smooth_union(
+    const dual<T, N>& a, const dual<T, N>& b, float k) {
   auto value = csg_smooth_union(a.v, b.v, k);
-  if (may_be_nan(a.v) || may_be_nan(b.v)) return with_unknown_slope(value);
+  if (may_be_nan(a.v) || may_be_nan(b.v)) return with_unknown_slope<N>(value);
   auto kk = lift<T>(std::max(k, 0.0f));
   if (always_less_equal(math_add(b.v, kk), a.v)) return with_slopes(value, b);
   if (always_less_equal(math_add(a.v, kk), b.v)) return with_slopes(value, a);
   return blend_duals(value, a, b, k);
 }
-template <class T>
-inline dual<T> csg_smooth_intersection(
-    const dual<T>& a, const dual<T>& b, float k) {
+template <class T, int N>
+inline dual<T, N> csg_smooth_intersection(
+    const dual<T, N>& a, const dual<T, N>& b, float k) {
   return math_neg(csg_smooth_union(math_neg(a), math_neg(b), k));
 }
-template <class T>
-inline dual<T> csg_smooth_subtraction(
-    const dual<T>& a, const dual<T>& b, float k) {
+template <class T, int N>
+inline dual<T, N> csg_smooth_subtraction(
+    const dual<T, N>& a, const dual<T, N>& b, float k) {
   return csg_smooth_intersection(a, math_neg(b), k);
 }
-template <class T>
-inline dual<T> csg_round(const dual<T>& a, float radius) {
+template <class T, int N>
+inline dual<T, N> csg_round(const dual<T, N>& a, float radius) {
   return with_slopes(csg_round(a.v, radius), a);
 }
-template <class T>
-inline dual<T> csg_onion(const dual<T>& a, float thickness) {
+template <class T, int N>
+inline dual<T, N> csg_onion(const dual<T, N>& a, float thickness) {
   return with_slopes(csg_onion(a.v, thickness), math_abs(a));
 }
-template <class T>
-inline dual<T> csg_scale(const dual<T>& a, float scale) {
-  auto r = dual<T>{csg_scale(a.v, scale)};
-  for (auto i = 0; i < 3; i++) r.d[i] = math_mul(lift<T>(scale), a.d[i]);
+template <class T, int N>
+inline dual<T, N> csg_scale(const dual<T, N>& a, float scale) {
+  auto r = dual<T, N>{csg_scale(a.v, scale)};
+  for (auto i = 0; i < N; i++) r.d[i] = math_mul(lift<T>(scale), a.d[i]);
   return r;
 }
 
 // An affine map of dual coordinates, in transform_point's order (so the
 // values are its floats).
-template <class T>
-inline sdf_vec3<dual<T>> map_dual(
-    const frame3f& f, const sdf_vec3<dual<T>>& p) {
+template <class T, int N>
+inline sdf_vec3<dual<T, N>> map_dual(
+    const frame3f& f, const sdf_vec3<dual<T, N>>& p) {
   auto row = [&](float mx, float my, float mz, float o) {
-    return math_add(math_add(math_add(math_mul(lift<dual<T>>(mx), p.x),
-                                 math_mul(lift<dual<T>>(my), p.y)),
-                        math_mul(lift<dual<T>>(mz), p.z)),
-        lift<dual<T>>(o));
+    return math_add(math_add(math_add(math_mul(lift<dual<T, N>>(mx), p.x),
+                                 math_mul(lift<dual<T, N>>(my), p.y)),
+                        math_mul(lift<dual<T, N>>(mz), p.z)),
+        lift<dual<T, N>>(o));
   };
   return {row(f.x.x, f.y.x, f.z.x, f.o.x), row(f.x.y, f.y.y, f.z.y, f.o.y),
       row(f.x.z, f.y.z, f.z.z, f.o.z)};
@@ -543,32 +551,36 @@ inline sdf_vec3<dual<T>> map_dual(
 // The derivatives of a primitive along the input's axes: its gradient in
 // its own space (`g`, each component an interval over a box) chained
 // through the derivatives of its point.
-template <class T>
-inline dual<T> chain_shape(
-    const T& value, const T g[3], const sdf_vec3<dual<T>>& q) {
-  auto r = dual<T>{value};
-  for (auto k = 0; k < 3; k++)
+template <class T, int N>
+inline dual<T, N> chain_shape(
+    const T& value, const T g[3], const sdf_vec3<dual<T, N>>& q) {
+  auto r = dual<T, N>{value};
+  for (auto k = 0; k < N; k++)
     r.d[k] =
         math_add(math_add(math_mul(g[0], q.x.d[k]), math_mul(g[1], q.y.d[k])),
             math_mul(g[2], q.z.d[k]));
   return r;
 }
 
-inline sdf_vec3<dual<float>> map_point(
-    const sdf_tape& pool, int frame, const sdf_vec3<dual<float>>& p) {
+template <int N>
+inline sdf_vec3<dual<float, N>> map_point(
+    const sdf_tape& pool, int frame, const sdf_vec3<dual<float, N>>& p) {
   return map_dual(pool.frames[frame], p);
 }
-inline sdf_vec3<dual<float>> warp_point(
-    const sdf_node& node, const sdf_vec3<dual<float>>& p) {
+template <int N>
+inline sdf_vec3<dual<float, N>> warp_point(
+    const sdf_node& node, const sdf_vec3<dual<float, N>>& p) {
   return warp_vec3(node, p);
 }
-inline dual<float> point_coord(const sdf_vec3<dual<float>>& p, int axis) {
+template <int N>
+inline dual<float, N> point_coord(const sdf_vec3<dual<float, N>>& p, int axis) {
   return axis == 0 ? p.x : axis == 1 ? p.y : p.z;
 }
 // Analytic gradients where sdf_primitives has them, else tetrahedral
 // differences of the primitive alone, in its own space.
-inline dual<float> eval_shape(
-    const sdf_node& node, const sdf_vec3<dual<float>>& q, float step) {
+template <int N>
+inline dual<float, N> eval_shape(
+    const sdf_node& node, const sdf_vec3<dual<float, N>>& q, float step) {
   auto p     = vec3f{q.x.v, q.y.v, q.z.v};
   auto value = eval_primitive(node, p);
   auto g     = vec3f{};
@@ -581,59 +593,78 @@ inline dual<float> eval_shape(
   float slopes[3] = {g.x, g.y, g.z};
   return chain_shape(value, slopes, q);
 }
-inline dual<float> sdf_constant(float value, const dual<float>*) {
-  return make_dual_constant(value);
+template <int N>
+inline dual<float, N> sdf_constant(float value, const dual<float, N>*) {
+  return make_dual_constant<N>(value);
 }
 
 // A box of dual coordinates, with the ball of sdf_box_point.
+template <int N>
 struct sdf_dual_box_point {
-  sdf_vec3<dual<interval>> p      = {};
-  vec3f                    centre = {};
-  float                    radius = 0;
+  sdf_vec3<dual<interval, N>> p      = {};
+  vec3f                       centre = {};
+  float                       radius = 0;
 };
-inline sdf_dual_box_point make_dual_box_point(const bbox3f& box) {
+// Over a box, with the partials along x, y and z.
+inline sdf_dual_box_point<3> make_dual_box_point(const bbox3f& box) {
   auto b   = make_box_point(box);
-  auto r   = sdf_dual_box_point{};
+  auto r   = sdf_dual_box_point<3>{};
   r.p      = {make_dual_variable(b.x, 0), make_dual_variable(b.y, 1),
            make_dual_variable(b.z, 2)};
   r.centre = b.centre;
   r.radius = b.radius;
   return r;
 }
-inline sdf_dual_box_point map_point(
-    const sdf_tape& pool, int frame, const sdf_dual_box_point& p) {
-  auto r   = sdf_dual_box_point{};
+// Over a box around a piece of a ray, with the derivative along it.
+inline sdf_dual_box_point<1> make_dual_box_point(
+    const bbox3f& box, vec3f direction) {
+  auto b = make_box_point(box);
+  auto r = sdf_dual_box_point<1>{};
+  r.p = {make_dual_along(b.x, direction.x), make_dual_along(b.y, direction.y),
+      make_dual_along(b.z, direction.z)};
+  r.centre = b.centre;
+  r.radius = b.radius;
+  return r;
+}
+template <int N>
+inline sdf_dual_box_point<N> map_point(
+    const sdf_tape& pool, int frame, const sdf_dual_box_point<N>& p) {
+  auto r   = sdf_dual_box_point<N>{};
   r.p      = map_dual(pool.frames[frame], p.p);
   r.centre = transform_point(pool.frames[frame], p.centre);
   r.radius = p.radius * pool.stretches[frame];
   return r;
 }
-inline sdf_dual_box_point warp_point(
-    const sdf_node& node, const sdf_dual_box_point& p) {
+template <int N>
+inline sdf_dual_box_point<N> warp_point(
+    const sdf_node& node, const sdf_dual_box_point<N>& p) {
   // The ball as for intervals (from the coordinates' boxes).
   auto box    = sdf_box_point{p.p.x.v, p.p.y.v, p.p.z.v, p.centre, p.radius};
   auto warped = warp_point(node, box);
-  auto r      = sdf_dual_box_point{};
+  auto r      = sdf_dual_box_point<N>{};
   r.p         = warp_vec3(node, p.p);
   r.centre    = warped.centre;
   r.radius    = warped.radius;
   return r;
 }
-inline dual<interval> point_coord(const sdf_dual_box_point& p, int axis) {
+template <int N>
+inline dual<interval, N> point_coord(const sdf_dual_box_point<N>& p, int axis) {
   return axis == 0 ? p.p.x : axis == 1 ? p.p.y : p.p.z;
 }
 // The value as for intervals; the gradient of a primitive of Lipschitz
 // factor L has components in [-L, L].
-inline dual<interval> eval_shape(
-    const sdf_node& node, const sdf_dual_box_point& q, float step) {
+template <int N>
+inline dual<interval, N> eval_shape(
+    const sdf_node& node, const sdf_dual_box_point<N>& q, float step) {
   auto     box = sdf_box_point{q.p.x.v, q.p.y.v, q.p.z.v, q.centre, q.radius};
   auto     lipschitz = primitive_lipschitz(node);
   interval g[3]      = {{-lipschitz, lipschitz}, {-lipschitz, lipschitz},
            {-lipschitz, lipschitz}};
   return chain_shape(eval_shape(node, box, step), g, q.p);
 }
-inline dual<interval> sdf_constant(float value, const dual<interval>*) {
-  return make_dual_constant(interval{value});
+template <int N>
+inline dual<interval, N> sdf_constant(float value, const dual<interval, N>*) {
+  return make_dual_constant<N>(interval{value});
 }
 
 // -----------------------------------------------------------------------------
@@ -644,7 +675,10 @@ inline dual<interval> sdf_constant(float value, const dual<interval>*) {
 // Put x among the sdf_smooth_group_size smallest values `v[0, count)`,
 // kept sorted by their value (floats, or duals by theirs); NaN poisons.
 inline float sort_value(float x) { return x; }
-inline float sort_value(const dual<float>& x) { return x.v; }
+template <int N>
+inline float sort_value(const dual<float, N>& x) {
+  return x.v;
+}
 template <class S, class V>
 inline void insert_smallest(S& s, const V& x) {
   auto key = sort_value(x);
@@ -720,39 +754,47 @@ inline interval smooth_close(const sdf_smooth_intervals& s, float k) {
   if (s.entire) return entire_interval;
   return make_interval(smooth_fold(s.lo, k), smooth_fold(s.hi, k));
 }
+template <int N>
 inline void smooth_add(
-    sdf_smooth_intervals& s, const dual<interval>& x, float k) {
+    sdf_smooth_intervals& s, const dual<interval, N>& x, float k) {
   if (!(x.v.lo >= s.least_hi + std::max(k, 0.0f))) {
-    for (auto i = 0; i < 3; i++)
+    for (auto i = 0; i < N; i++)
       s.d[i] = s.least_hi == flt_inf ? x.d[i] : join_slopes(s.d[i], x.d[i]);
   }
   s.least_hi = std::min(s.least_hi, x.v.hi);
   smooth_add(s, x.v, k);
 }
-inline dual<interval> smooth_close_dual(
+template <int N>
+inline dual<interval, N> smooth_close_dual(
     const sdf_smooth_intervals& s, float k) {
   auto value = smooth_close(s, k);
-  if (s.entire) return with_unknown_slope(value);
-  return {value, {s.d[0], s.d[1], s.d[2]}};
+  if (s.entire) return with_unknown_slope<N>(value);
+  auto r = dual<interval, N>{value};
+  for (auto i = 0; i < N; i++) r.d[i] = s.d[i];
+  return r;
 }
 
 // Duals at a point: sorted by value, folded with the binary smooth
 // minimum's exact weights.
+template <int N>
 struct sdf_smooth_duals {
-  dual<float> v[sdf_smooth_group_size];
-  int         count;
-  bool        nan;
+  dual<float, N> v[sdf_smooth_group_size];
+  int            count;
+  bool           nan;
 };
-inline void smooth_open(sdf_smooth_duals& s) {
+template <int N>
+inline void smooth_open(sdf_smooth_duals<N>& s) {
   s.count = 0;
   s.nan   = false;
 }
-inline void smooth_add(sdf_smooth_duals& s, const dual<float>& x, float) {
+template <int N>
+inline void smooth_add(sdf_smooth_duals<N>& s, const dual<float, N>& x, float) {
   insert_smallest(s, x);
 }
-inline dual<float> smooth_close(const sdf_smooth_duals& s, float k) {
+template <int N>
+inline dual<float, N> smooth_close(const sdf_smooth_duals<N>& s, float k) {
   if (s.nan || s.count == 0)
-    return with_unknown_slope(std::numeric_limits<float>::quiet_NaN());
+    return with_unknown_slope<N>(std::numeric_limits<float>::quiet_NaN());
   auto m = s.v[0];
   for (auto i = 1; i < s.count; i++)
     m = csg_smooth_union(m, s.v[i], std::max(k, 0.0f));
@@ -770,48 +812,48 @@ inline P map_shape_point(const sdf_tape& pool, int frame, const P& p) {
 }
 
 // The point and the group accumulator of each value type.
+// The point and the group accumulator of each value type, and how the
+// accumulator closes into a value.
 template <class T>
 struct sdf_value_types;
 template <>
 struct sdf_value_types<float> {
   using point = vec3f;
   using group = sdf_smooth_floats;
+  static float close(const group& s, float k) { return smooth_close(s, k); }
 };
 template <>
 struct sdf_value_types<sdf_lanes> {
   using point = sdf_lane_points;
   using group = sdf_smooth_lanes;
+  static sdf_lanes close(const group& s, float k) { return smooth_close(s, k); }
 };
 template <>
 struct sdf_value_types<interval> {
   using point = sdf_box_point;
   using group = sdf_smooth_intervals;
+  static interval close(const group& s, float k) { return smooth_close(s, k); }
 };
-template <>
-struct sdf_value_types<dual<float>> {
-  using point = sdf_vec3<dual<float>>;
-  using group = sdf_smooth_duals;
+template <int N>
+struct sdf_value_types<dual<float, N>> {
+  using point = sdf_vec3<dual<float, N>>;
+  using group = sdf_smooth_duals<N>;
+  static dual<float, N> close(const group& s, float k) {
+    return smooth_close(s, k);
+  }
 };
-template <>
-struct sdf_value_types<dual<interval>> {
-  using point = sdf_dual_box_point;
+template <int N>
+struct sdf_value_types<dual<interval, N>> {
+  using point = sdf_dual_box_point<N>;
   using group = sdf_smooth_intervals;
+  static dual<interval, N> close(const group& s, float k) {
+    return smooth_close_dual<N>(s, k);
+  }
 };
 template <class T>
 using sdf_point = typename sdf_value_types<T>::point;
 template <class T>
 using sdf_group = typename sdf_value_types<T>::group;
-
-// Closing a group's accumulator into a value.
-template <class T>
-inline T close_group(const sdf_group<T>& s, float k) {
-  return smooth_close(s, k);
-}
-template <>
-inline dual<interval> close_group<dual<interval>>(
-    const sdf_smooth_intervals& s, float k) {
-  return smooth_close_dual(s, k);
-}
 
 // Where a clause writes: its register, or its own index in an SSA list.
 inline int clause_out(const sdf_clause& clause, int) { return clause.out; }
@@ -892,7 +934,7 @@ inline void run_sdf_clauses(const sdf_tape& pool, const Clause* begin,
         smooth_add(groups[out], values[c->b], k);
         break;
       case sdf_op::smooth_close:
-        values[out] = close_group<T>(groups[c->a], k);
+        values[out] = sdf_value_types<T>::close(groups[c->a], k);
         break;
       case sdf_op::csg_round: values[out] = csg_round(values[c->a], k); break;
       case sdf_op::csg_onion: values[out] = csg_onion(values[c->a], k); break;

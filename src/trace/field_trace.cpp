@@ -32,9 +32,13 @@ struct field_ray {
   segment_region   whole = {};  // the whole tape over the object's stretch
   mutable int      cell  = invalidid;
   mutable bbox3f   box   = {};
+  mutable const sdf_cell*  cell_data = nullptr;  // the cell `cell`, kept
+  mutable sdf_field_cursor cursor    = {};       // the last search's path
 
-  // The only reads of the octree's cells.
+  // The only reads of the octree's cells (the last located one kept: a
+  // march asks for it at every step).
   const sdf_cell& leaf(int region) const {
+    if (region == cell && cell_data) return *cell_data;
     return get_sdf_cell(*field, region);
   }
   const sdf_clause* begin(int region) const {
@@ -51,7 +55,8 @@ struct field_ray {
 
   // The leaf at the ray point t and where the ray leaves its box.
   int find(float t, bbox3f& leaf_box, float& exit) const {
-    auto index = find_sdf_cell(*field, ray_point(ray, t), leaf_box);
+    auto index = find_sdf_cell(*field, ray_point(ray, t), cursor);
+    leaf_box   = cursor.box;
     exit       = flt_max;
     for (auto a = 0; a < 3; a++) {
       auto d = at(ray.d, a);
@@ -72,21 +77,23 @@ struct field_ray {
       index      = find(t + probe, leaf_box, exit);
     }
     if (index < 0) return whole;
-    cell = index;
-    box  = leaf_box;
+    cell      = index;
+    cell_data = &get_sdf_cell(*field, index);
+    box       = leaf_box;
     return {index, std::min(exit, whole.t_exit), leaf(index).range,
         leaf(index).lipschitz * length(ray.d)};
   }
 
   float value(int region, float t) const {
-    return eval_sdf_cell(*field, region, ray_point(ray, t));
+    if (region < 0) return eval_sdf_cell(*field, region, ray_point(ray, t));
+    return eval_sdf_leaf(*field, leaf(region), ray_point(ray, t));
   }
 
   vec2f value_slope(int region, float t) const {
     if (is_constant(region)) return {leaf(region).bound, 0};
-    auto f = eval_sdf_dual(
-        field->full, begin(region), end(region), ray_point(ray, t));
-    return {f.v, dot(gradient(f), ray.d)};
+    auto f = eval_sdf_slope(
+        field->full, begin(region), end(region), ray_point(ray, t), ray.d);
+    return {f.v, f.d[0]};
   }
 
   segment_bound bound(int region, float t0, float t1) const {
@@ -99,10 +106,10 @@ struct field_ray {
       auto inside = intersect(piece, box);
       if (!is_empty(inside)) piece = inside;
     }
-    auto f = eval_sdf_dual(field->full, begin(region), end(region), piece);
-    // df/dt = gradient . d over the piece.
-    auto slope = mag(f.d[0] * interval{ray.d.x} + f.d[1] * interval{ray.d.y} +
-                     f.d[2] * interval{ray.d.z});
+    // df/dt over the piece, by forward-mode derivatives along the ray.
+    auto f =
+        eval_sdf_slope(field->full, begin(region), end(region), piece, ray.d);
+    auto slope = mag(f.d[0]);
     return {f.v, slope == slope ? slope : flt_inf};
   }
 };
