@@ -436,8 +436,8 @@ inline interval sdf_constant(float value, const interval*) {
 }
 
 // -----------------------------------------------------------------------------
-// DUAL NUMBERS: values with gradients (dual<float> at a point, dual<interval>
-// over a box)
+// DUAL NUMBERS: values with derivatives (dual<float, N> at a point,
+// dual<interval, N> over a box; N = 3 partials, or 1 along a ray)
 // -----------------------------------------------------------------------------
 
 // Finite-difference step of primitives without an analytic gradient,
