@@ -328,11 +328,6 @@ int find_sdf_cell(const sdf_field& field, vec3f p) {
   return find_sdf_cell(field, p, box);
 }
 
-static bool inside_half_open(const bbox3f& b, vec3f p) {
-  return p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y && p.y < b.max.y &&
-         p.z >= b.min.z && p.z < b.max.z;
-}
-
 int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
   auto& c = cursor;
   c.cell  = invalidid;

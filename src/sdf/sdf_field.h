@@ -116,6 +116,10 @@ inline float eval_sdf(const sdf_field& field, vec3f p) {
 // there, not from the root. Boxes are half open, [min, max), as
 // find_sdf_cell splits them, so the leaf is the one it would find: a point
 // in a cell's half-open box lies on its side of every split above it.
+inline bool inside_half_open(const bbox3f& b, vec3f p) {
+  return p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y && p.y < b.max.y &&
+         p.z >= b.min.z && p.z < b.max.z;
+}
 inline constexpr int sdf_cursor_depth = 16;  // ancestors kept, from the root
 struct sdf_field_cursor {
   int    cell  = invalidid;  // the leaf
@@ -129,9 +133,7 @@ struct sdf_field_cursor {
 int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor);
 inline float eval_sdf(
     const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
-  auto& b = cursor.box;
-  if (!(cursor.cell >= 0 && p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y &&
-          p.y < b.max.y && p.z >= b.min.z && p.z < b.max.z))
+  if (!(cursor.cell >= 0 && inside_half_open(cursor.box, p)))
     find_sdf_cell(field, p, cursor);
   return eval_sdf_cell(field, cursor.cell, p);
 }
