@@ -30,15 +30,14 @@ struct field_ray {
   const sdf_field* field = nullptr;
   ray3f            ray   = {};
   segment_region   whole = {};  // the whole tape over the object's stretch
-  mutable int      cell  = invalidid;
-  mutable bbox3f   box   = {};
-  mutable const sdf_cell*  cell_data = nullptr;  // the cell `cell`, kept
-  mutable sdf_field_cursor cursor    = {};       // the last search's path
+  // The last located leaf (cursor.cell, cursor.box, the path to it) and
+  // its cell, kept: a march asks for it at every step.
+  mutable sdf_field_cursor cursor  = {};
+  mutable const sdf_cell*  located = nullptr;
 
-  // The only reads of the octree's cells (the last located one kept: a
-  // march asks for it at every step).
+  // The only reads of the octree's cells.
   const sdf_cell& leaf(int region) const {
-    if (region == cell && cell_data) return *cell_data;
+    if (region == cursor.cell && located) return *located;
     return get_sdf_cell(*field, region);
   }
   const sdf_clause* begin(int region) const {
@@ -53,15 +52,16 @@ struct field_ray {
     return region >= 0 && leaf(region).count == 0;
   }
 
-  // The leaf at the ray point t and where the ray leaves its box.
-  int find(float t, bbox3f& leaf_box, float& exit) const {
-    auto index = find_sdf_cell(*field, ray_point(ray, t), cursor);
-    leaf_box   = cursor.box;
-    exit       = flt_max;
+  // The leaf at the ray point t (its box in cursor.box) and where the ray
+  // leaves that box.
+  int find(float t, float& exit) const {
+    auto  index = find_sdf_cell(*field, ray_point(ray, t), cursor);
+    auto& box   = cursor.box;
+    exit        = flt_max;
     for (auto a = 0; a < 3; a++) {
       auto d = at(ray.d, a);
       if (d == 0) continue;
-      auto plane = d > 0 ? at(leaf_box.max, a) : at(leaf_box.min, a);
+      auto plane = d > 0 ? at(box.max, a) : at(box.min, a);
       exit       = std::min(exit, (plane - at(ray.o, a)) / d);
     }
     return index;
@@ -69,17 +69,14 @@ struct field_ray {
 
   segment_region locate(float t) const {
     if (!field->octree) return whole;
-    auto leaf_box = bbox3f{};
-    auto exit     = 0.0f;
-    auto index    = find(t, leaf_box, exit);
+    auto exit  = 0.0f;
+    auto index = find(t, exit);
     if (index >= 0 && !(exit > t)) {
-      auto probe = max(size(leaf_box)) * field_probe_fraction / length(ray.d);
-      index      = find(t + probe, leaf_box, exit);
+      auto probe = max(size(cursor.box)) * field_probe_fraction / length(ray.d);
+      index      = find(t + probe, exit);
     }
     if (index < 0) return whole;
-    cell      = index;
-    cell_data = &get_sdf_cell(*field, index);
-    box       = leaf_box;
+    located = &get_sdf_cell(*field, index);
     return {index, std::min(exit, whole.t_exit), leaf(index).range,
         leaf(index).lipschitz * length(ray.d)};
   }
@@ -102,8 +99,8 @@ struct field_ray {
     auto piece = bbox3f{min(a, b), max(a, b)};
     // A simplified tape holds inside its cell only: keep the piece there
     // (it leaves it by rounding only).
-    if (region >= 0 && region == cell) {
-      auto inside = intersect(piece, box);
+    if (region >= 0 && region == cursor.cell) {
+      auto inside = intersect(piece, cursor.box);
       if (!is_empty(inside)) piece = inside;
     }
     // df/dt over the piece, by forward-mode derivatives along the ray.
