@@ -14,14 +14,16 @@
 // Usage: bench_denoise [--resolution N] [--reference-samples N]
 //        [--samples N] [--out DIR]
 //        [--files a.json,b.json] [--methods nlm,nfor,ttest] [--images]
-//        [--radius N] [--strength K] [--adaptive 0.05,0.02]
+//        [--radius N] [--strength K] [--adaptive 0.05,0.02] [--seeds N]
 // --adaptive also compares, per noise threshold, adaptive sampling (at most
-// 16 x --samples spp) with uniform sampling at equal CPU time.
+// 16 x --samples spp) with uniform sampling at equal CPU time (--seeds
+// times, with the median ratio).
 // --methods takes variants: a method, then :key=value settings (see
 // parse_variant), e.g. --methods nlm,nlm:k=1,ttest:r=9:t=2.5.
 
 #include <time.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -48,6 +50,7 @@ struct bench_options {
   std::vector<std::string> methods           = {"nlm", "nfor", "ttest"};
   bool                     images            = false;
   std::vector<float>       adaptive          = {};  // noise thresholds
+  int                      seeds             = 1;   // adaptive runs
 };
 
 static double process_cpu_seconds() {
@@ -82,6 +85,15 @@ static std::vector<vec3f> error_map(const std::vector<vec3f>& image,
     map[i] = vec3f{1, 1, 1} * (e * gain);
   }
   return map;
+}
+
+// Linear RGB pixels as an image (alpha 1).
+static image_data to_image(
+    int width, int height, const std::vector<vec3f>& pixels) {
+  auto image = make_image(width, height);
+  for (size_t i = 0; i < pixels.size(); i++)
+    image.pixels[i] = {pixels[i].x, pixels[i].y, pixels[i].z, 1};
+  return image;
 }
 
 static std::vector<vec3f> rgb(const image_data& image) {
@@ -134,28 +146,43 @@ static render_buffer buffer_render(const render_context& context,
 // Adaptive against uniform sampling at equal CPU time: an adaptive render
 // with `threshold` (at most 16 x --samples spp), then a uniform one of the
 // samples its CPU time buys at the rate of the uniform --samples render
-// (`seconds_per_sample`).
+// (`seconds_per_sample`), compared by relMSE x CPU time; with --seeds N, N pairs of renders with other
+// seeds (a render's relMSE at these sample counts swings with its rare
+// bright paths) and the median ratio.
 static void bench_adaptive(const render_context& context, trace_params params,
     float threshold, double seconds_per_sample, const bench_options& opts,
     const std::vector<vec3f>& reference) {
-  params.noise_threshold = threshold;
-  auto adaptive_seconds  = 0.0;
-  auto adaptive =
-      buffer_render(context, params, opts.samples * 16, adaptive_seconds);
-  auto total = 0.0;
-  for (auto count : adaptive.counts) total += count;
-  params.noise_threshold = 0;
-  auto samples =
-      std::max(1, (int)std::lround(adaptive_seconds / seconds_per_sample));
-  auto uniform_seconds = 0.0;
-  auto uniform = buffer_render(context, params, samples, uniform_seconds);
-  auto a       = rel_mse(rgb(average_samples(adaptive)), reference);
-  auto u       = rel_mse(rgb(average_samples(uniform)), reference);
-  std::printf(
-      "  adaptive %.3f: relMSE %.5f (%.1f spp on average, %.2f CPU s); "
-      "uniform %d spp: %.5f (%.2f CPU s); %.2fx lower\n",
-      threshold, a, total / adaptive.counts.size(), adaptive_seconds, samples,
-      u, uniform_seconds, u / a);
+  auto ratios = std::vector<double>{};
+  auto seed   = params.seed;
+  for (auto run = 0; run < opts.seeds; run++) {
+    params.seed            = seed + 1000 * run;
+    params.noise_threshold = threshold;
+    auto adaptive_seconds  = 0.0;
+    auto adaptive =
+        buffer_render(context, params, opts.samples * 16, adaptive_seconds);
+    auto total = 0.0;
+    for (auto count : adaptive.counts) total += count;
+    params.noise_threshold = 0;
+    auto samples =
+        std::max(1, (int)std::lround(adaptive_seconds / seconds_per_sample));
+    auto uniform_seconds = 0.0;
+    auto uniform = buffer_render(context, params, samples, uniform_seconds);
+    auto a       = rel_mse(rgb(average_samples(adaptive)), reference);
+    auto u       = rel_mse(rgb(average_samples(uniform)), reference);
+    // relMSE x CPU time: the relMSE at equal time, for unbiased renders,
+    // even when the uniform render's time missed the adaptive one's.
+    auto ratio = (u * uniform_seconds) / (a * adaptive_seconds);
+    std::printf(
+        "  adaptive %.3f: relMSE %.5f (%.1f spp on average, %.2f CPU s); "
+        "uniform %d spp: %.5f (%.2f CPU s); relMSE x time %.2fx lower\n",
+        threshold, a, total / adaptive.counts.size(), adaptive_seconds,
+        samples, u, uniform_seconds, ratio);
+    ratios.push_back(ratio);
+  }
+  if (ratios.size() < 2) return;
+  std::sort(ratios.begin(), ratios.end());
+  std::printf("  adaptive %.3f: median of %zu seeds %.2fx lower\n", threshold,
+      ratios.size(), ratios[ratios.size() / 2]);
 }
 
 // Save images in a grid of three columns as one PNG, each pixel `zoom`
@@ -177,7 +204,7 @@ static void save_strip(const std::string& path, int width, int height,
 
 // A denoiser variant: a method name, then ":key=value" settings: r radius,
 // p patch radius, k strength, t t-test threshold, a/n/z albedo, normal and
-// depth sigmas, l ridge, s selection radius (e.g. "ttest:r=9:t=2.5").
+// depth sigmas, l ridge, s selection radius, v=0 the halves' difference instead of the variance buffer (e.g. "ttest:r=9:t=2.5").
 static denoise_params parse_variant(const std::string& text) {
   auto   parts = std::vector<std::string>{};
   size_t start = 0;
@@ -211,6 +238,9 @@ static denoise_params parse_variant(const std::string& text) {
       params.ridge = (float)value;
     else if (key == "s")
       params.select_radius = (int)value;
+    else if (key == "v")
+      continue;  // v=0: the halves' difference instead of the variance
+
     else
       throw std::runtime_error("unknown variant setting " + parts[i]);
   }
@@ -245,8 +275,10 @@ static void bench_file(const std::string& file, const bench_options& opts) {
     auto dparams = parse_variant(method);
     if (opts.radius >= 0) dparams.radius = opts.radius;
     if (opts.strength > 0) dparams.strength = opts.strength;
+    auto input = buffers;
+    if (method.find(":v=0") != std::string::npos) input.variance = {};
     auto start    = process_cpu_seconds();
-    auto denoised = denoise_image(buffers, dparams);
+    auto denoised = denoise_image(input, dparams);
     auto seconds  = process_cpu_seconds() - start;
     auto plain    = buffers;
     plain.albedo = {}, plain.normal = {}, plain.depth = {};
@@ -258,6 +290,9 @@ static void bench_file(const std::string& file, const bench_options& opts) {
         rel_mse(no_features, reference), 1000 * seconds / megapixels,
         100 * seconds / render_seconds);
     strip.push_back(denoised);
+    if (opts.images)
+      save_image(opts.out + "/" + name + "_" + method + ".exr",
+          to_image(buffers.width, buffers.height, denoised));
   }
   for (auto threshold : opts.adaptive)
     bench_adaptive(*context, params, threshold, render_seconds / opts.samples,
@@ -268,6 +303,12 @@ static void bench_file(const std::string& file, const bench_options& opts) {
   auto gain = (float)(0.25 / rel_mse(buffers.color, reference));
   for (size_t k = 0; k < std::min(strip.size() - 2, (size_t)3); k++)
     strip.push_back(error_map(strip[k], reference, gain));
+  if (opts.images) {
+    save_image(opts.out + "/" + name + "_raw.exr",
+        to_image(buffers.width, buffers.height, buffers.color));
+    save_image(opts.out + "/" + name + "_high.exr",
+        to_image(buffers.width, buffers.height, high));
+  }
   if (opts.images)
     save_strip(opts.out + "/" + name + "_strip.png", buffers.width,
         buffers.height, strip);
@@ -313,6 +354,8 @@ int main(int argc, const char** argv) {
         opts.methods = split(next());
       else if (arg == "--images")
         opts.images = true;
+      else if (arg == "--seeds")
+        opts.seeds = std::max(1, std::atoi(next().c_str()));
       else if (arg == "--adaptive")
         for (auto& value : split(next()))
           opts.adaptive.push_back(std::stof(value));

@@ -176,6 +176,25 @@ TEST_CASE("render core: adaptive sampling stops the same pixels anyhow") {
   }
 }
 
+TEST_CASE("render core: a pixel's error is its relative standard error") {
+  // Samples 0.1, 0.3, 0.5, 0.7 in red, 2 in green and 0 in blue: sample
+  // variances 1/15, 0, 0 (n - 1 = 3), variances of the mean 1/60, 0, 0;
+  // relative to mean^2 + 0.01: (1/60) / 0.17, 0, 0 (blue's mean 0 counts
+  // as 0.1, and its zero variance as zero error).
+  auto buffer = make_render_buffer({0, 1, 0, 1}, 1, 1, {true});
+  for (auto value : {0.1f, 0.3f, 0.5f, 0.7f}) {
+    auto rgb = vec3f{value, 2, 0};
+    buffer.sums[0] += vec4f{rgb.x, rgb.y, rgb.z, 1};
+    buffer.squares[0] += rgb * rgb;
+    buffer.counts[0]++;
+  }
+  auto expected = std::sqrt((1.0 / 60) / (0.16 + 0.01) / 3);
+  CHECK(pixel_error(buffer, 0) == doctest::Approx(expected).epsilon(1e-5));
+  // One sample tells nothing.
+  buffer.counts[0] = 1;
+  CHECK(pixel_error(buffer, 0) == std::numeric_limits<float>::max());
+}
+
 TEST_CASE("render core: pixel streams never collide") {
   // Stream ids are the pixel indices: distinct streams give distinct
   // sequences even for pixels 2^30 apart (the old ids repeated there).

@@ -208,10 +208,9 @@ float pixel_error(const render_buffer& buffer, size_t idx) {
   if (count < 2 || buffer.squares.empty()) return flt_max;
   auto sum      = xyz(buffer.sums[idx]);
   auto variance = mean_variance(sum, buffer.squares[idx], count);
-  auto error =
-      std::sqrt(variance.x) + std::sqrt(variance.y) + std::sqrt(variance.z);
-  auto mean = (sum.x + sum.y + sum.z) / (float)count;
-  return error / (1e-4f + std::sqrt(std::max(mean, 0.0f)));
+  auto mean = sum * (1.0f / (float)count);
+  auto rel  = variance / (mean * mean + 0.01f);
+  return std::sqrt((rel.x + rel.y + rel.z) / 3);
 }
 
 int adaptive_min_samples(const trace_params& params) {

@@ -148,11 +148,14 @@ rng_state make_pixel_rng(uint64_t seed, size_t index);
 render_buffer make_render_buffer(const render_rect& rect, int width,
     uint64_t seed, const buffer_layout& layout = {});
 
-// ADAPTIVE SAMPLING. A pixel's error estimate is Cycles' relative one: the
-// standard error of its mean summed over RGB, over the square root of the
-// mean summed over RGB (dark pixels need less absolute precision); from the
-// sample variance, which stays stable where the half-buffer difference of
-// one pixel is itself noisy. A pixel is tested before samples
+// ADAPTIVE SAMPLING. A pixel's error estimate is the standard error of its
+// mean relative to the mean, as relative MSE weighs it: the square root of
+// the mean over RGB of variance / (mean^2 + 0.01), so that values below 0.1
+// count as 0.1 (Cycles divides by the square root of the mean instead, which
+// stops dark pixels early and bright ones late: on the seed's grid scene it
+// lost to uniform sampling at equal time); from the sample variance, which
+// stays stable where the half-buffer difference of one pixel is itself
+// noisy. A pixel is tested before samples
 // adaptive_min_samples(), then every adaptive_step() samples, from its own
 // data only, and stops once its estimate is below params.noise_threshold:
 // where a render cuts its samples into passes, tiles or ranks never changes

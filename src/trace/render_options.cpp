@@ -127,11 +127,12 @@ static std::vector<render_option> make_render_option_table() {
   append(aov);
   auto threshold =
       make_option(id::noise_threshold, "noise-threshold", type::number,
-          "Adaptive sampling: a pixel stops once its relative error estimate "
-          "is below this (Cycles' scale: 0.01 is clean; 0: every pixel takes "
-          "every sample)");
+          "Adaptive sampling: a pixel stops once the standard error of its "
+          "mean relative to the mean (values below 0.1 count as 0.1) is below "
+          "this (0.02 is clean, 0.1 a preview; 0: every pixel takes every "
+          "sample)");
   threshold.max    = 1000;
-  threshold.ui_min = 0, threshold.ui_max = 0.1;
+  threshold.ui_min = 0, threshold.ui_max = 0.2;
   append(threshold);
   append(integer_option(id::min_samples, "min-samples", 0, 1 << 20, 0, 1024,
       "Adaptive sampling: samples before a pixel may stop (0: the larger of "
