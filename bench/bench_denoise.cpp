@@ -146,9 +146,9 @@ static render_buffer buffer_render(const render_context& context,
 // Adaptive against uniform sampling at equal CPU time: an adaptive render
 // with `threshold` (at most 16 x --samples spp), then a uniform one of the
 // samples its CPU time buys at the rate of the uniform --samples render
-// (`seconds_per_sample`), compared by relMSE x CPU time; with --seeds N, N pairs of renders with other
-// seeds (a render's relMSE at these sample counts swings with its rare
-// bright paths) and the median ratio.
+// (`seconds_per_sample`), compared by relMSE x CPU time; with --seeds N, N
+// pairs of renders with other seeds (a render's relMSE at these sample counts
+// swings with its rare bright paths) and the median ratio.
 static void bench_adaptive(const render_context& context, trace_params params,
     float threshold, double seconds_per_sample, const bench_options& opts,
     const std::vector<vec3f>& reference) {
@@ -175,8 +175,8 @@ static void bench_adaptive(const render_context& context, trace_params params,
     std::printf(
         "  adaptive %.3f: relMSE %.5f (%.1f spp on average, %.2f CPU s); "
         "uniform %d spp: %.5f (%.2f CPU s); relMSE x time %.2fx lower\n",
-        threshold, a, total / adaptive.counts.size(), adaptive_seconds,
-        samples, u, uniform_seconds, ratio);
+        threshold, a, total / adaptive.counts.size(), adaptive_seconds, samples,
+        u, uniform_seconds, ratio);
     ratios.push_back(ratio);
   }
   if (ratios.size() < 2) return;
@@ -204,7 +204,8 @@ static void save_strip(const std::string& path, int width, int height,
 
 // A denoiser variant: a method name, then ":key=value" settings: r radius,
 // p patch radius, k strength, t t-test threshold, a/n/z albedo, normal and
-// depth sigmas, l ridge, s selection radius, v=0 the halves' difference instead of the variance buffer (e.g. "ttest:r=9:t=2.5").
+// depth sigmas, l ridge, s selection radius, v=0 the halves' difference instead
+// of the variance buffer (e.g. "ttest:r=9:t=2.5").
 static denoise_params parse_variant(const std::string& text) {
   auto   parts = std::vector<std::string>{};
   size_t start = 0;
