@@ -208,8 +208,8 @@ float pixel_error(const render_buffer& buffer, size_t idx) {
   if (count < 2 || buffer.squares.empty()) return flt_max;
   auto sum      = xyz(buffer.sums[idx]);
   auto variance = mean_variance(sum, buffer.squares[idx], count);
-  auto mean = sum * (1.0f / (float)count);
-  auto rel  = variance / (mean * mean + 0.01f);
+  auto mean     = sum * (1.0f / (float)count);
+  auto rel      = variance / (mean * mean + 0.01f);
   return std::sqrt((rel.x + rel.y + rel.z) / 3);
 }
 
