@@ -204,6 +204,12 @@ TEST_CASE("viewer: scripted run under Xvfb renders, accumulates and orbits") {
   CHECK(count_different(shown4, cli4) == 0);
   // Accumulating samples changes most pixels.
   CHECK(count_different(shown1, shown4) > size.x * size.y / 2);
+  // Denoised: the last pass shows the command line's denoised image.
+  auto cliD   = run_cli(" --samples 4 --denoise", "cliD.png");
+  auto shotD  = run_viewer(" --samples 4 --denoise", "viewerD.tga");
+  auto shownD = shown_image(shotD, size);
+  CHECK(count_different(shownD, cliD) == 0);
+  CHECK(count_different(shownD, shown4) > size.x * size.y / 4);
 
   // A drag to the right turns the camera: most pixels change, and the image
   // is still a picture.

@@ -60,9 +60,21 @@ static double elapsed(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
-image_data view_image(const render_state& state, int view) {
-  if (view <= 0) return output_image(state.buffer, state.params);
-  auto aov   = (aov_type)(view - 1);
+trace_params viewer_params_for_views(const trace_params& params) {
+  auto all = params;
+  for (auto aov = 0; aov < (int)aov_type_names.size(); aov++)
+    all.aovs |= aov_bit((aov_type)aov);
+  return all;
+}
+
+image_data view_image(const render_state& state, const render_view& view) {
+  if (view.view <= 0) {
+    auto params     = state.params;
+    params.denoise  = view.denoise;
+    params.denoiser = view.denoiser;
+    return output_image(state.buffer, params);
+  }
+  auto aov   = (aov_type)(view.view - 1);
   auto layer = average_layer(state.buffer, aov);
   auto image = make_image(state.width, state.height);
   auto step  = layer.channels.size();
@@ -75,45 +87,91 @@ image_data view_image(const render_state& state, int view) {
   return image;
 }
 
-// Preview, then passes until all samples are done or a newer job arrives.
-static void render_job_passes(
-    render_worker& worker, const render_job& job, int64_t id) {
+// The view the interface asks for now.
+static render_view current_view(render_worker& worker) {
+  auto lock = std::lock_guard<std::mutex>{worker.mutex};
+  return worker.job.view;
+}
+
+// Time spent on a job's passes and on denoising them, to keep the denoiser
+// under a quarter of the time while samples come in.
+struct pass_times {
+  double render = 0, denoise = 0;
+};
+
+// Publish the state as `view` (timing a denoised view), unless it is a
+// denoised view of an unfinished render that would take the denoiser past
+// a quarter of the time.
+static void publish_view(render_worker& worker, int64_t id,
+    const render_state& state, const render_view& view, bool finished,
+    double seconds, pass_times& times) {
+  auto filtered = view.view <= 0 && view.denoise;
+  if (filtered && !finished && times.denoise > times.render / 4) return;
+  auto start = std::chrono::steady_clock::now();
+  auto image = view_image(state, view);
+  if (filtered) times.denoise += elapsed(start);
+  publish(worker, id, std::move(image), state.samples, false, seconds);
+}
+
+// Preview, then passes until all samples are done or a newer job arrives;
+// `state` keeps the render for new views.
+static void render_job_passes(render_worker& worker, const render_job& job,
+    int64_t id, render_state& state) {
   auto& context = *worker.context;
   auto& params  = job.params;
   if (params.pratio > 1) {
-    auto preview = preview_params(params);
-    auto state   = make_render_state(context, preview, job.camera);
-    auto start   = std::chrono::steady_clock::now();
-    if (!render_step_cancellable(context, state, worker.latest, id)) return;
-    publish(worker, id, view_image(state, job.view), state.samples, true,
+    auto preview =
+        make_render_state(context, preview_params(params), job.camera);
+    auto start = std::chrono::steady_clock::now();
+    if (!render_step_cancellable(context, preview, worker.latest, id)) return;
+    auto view    = current_view(worker);
+    view.denoise = false;  // one sample at a fraction of the resolution
+    publish(worker, id, view_image(preview, view), preview.samples, true,
         elapsed(start));
   }
-  auto state = make_render_state(context, params, job.camera);
+  state      = make_render_state(context, params, job.camera);
+  auto times = pass_times{};
   while (state.samples < params.samples) {
     auto start = std::chrono::steady_clock::now();
     if (!render_step_cancellable(context, state, worker.latest, id)) return;
-    publish(worker, id, view_image(state, job.view), state.samples, false,
-        elapsed(start));
+    auto seconds = elapsed(start);
+    times.render += seconds;
+    publish_view(worker, id, state, current_view(worker),
+        state.samples == params.samples, seconds, times);
   }
 }
 
-// The thread: wait for a job, render it, repeat until told to quit.
+// The thread: wait for a job or a new view, render or re-show, repeat until
+// told to quit.
 static void run_worker(render_worker& worker) {
+  auto state = render_state{};  // the last job's render
+  auto done  = int64_t{-1};     // the job whose render it is, once finished
   while (true) {
-    auto job = render_job{};
-    auto id  = int64_t{0};
+    auto job       = render_job{};
+    auto id        = int64_t{0};
+    auto fresh_job = false;
     {
       auto lock = std::unique_lock<std::mutex>{worker.mutex};
-      worker.wake.wait(lock, [&] { return worker.posted || worker.quit; });
+      worker.wake.wait(lock,
+          [&] { return worker.posted || worker.reviewed || worker.quit; });
       if (worker.quit) return;
-      job           = worker.job;
-      id            = worker.latest.load();
-      worker.posted = false;
+      job             = worker.job;
+      id              = worker.latest.load();
+      fresh_job       = worker.posted;
+      worker.posted   = false;
+      worker.reviewed = false;
     }
     // The viewer posts only validated parameters; should a job still be
     // refused, it is dropped rather than ending the program.
     try {
-      render_job_passes(worker, job, id);
+      if (fresh_job) {
+        done = -1;
+        render_job_passes(worker, job, id, state);
+        if (state.samples == job.params.samples) done = id;
+      } else if (done == id) {
+        auto times = pass_times{};
+        publish_view(worker, id, state, job.view, true, 0, times);
+      }
     } catch (const std::exception&) { continue; }
   }
 }
@@ -139,6 +197,16 @@ int64_t restart_render(render_worker& worker, const render_job& job) {
   }
   worker.wake.notify_one();
   return id;
+}
+
+// Change the view of the current job; the worker re-shows its render.
+void show_render(render_worker& worker, const render_view& view) {
+  {
+    auto lock       = std::lock_guard<std::mutex>{worker.mutex};
+    worker.job.view = view;
+    worker.reviewed = true;
+  }
+  worker.wake.notify_one();
 }
 
 // Swap out the latest image.

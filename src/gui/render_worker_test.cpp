@@ -208,15 +208,58 @@ TEST_CASE("render worker: views show the image or one AOV layer") {
   auto state        = make_render_state(
              *context, params, context->scene.cameras[params.camera]);
   REQUIRE(render_step(*context, state, params.samples, {}));
-  CHECK(same_pixels(view_image(state, 0), get_image(state)));
+  CHECK(same_pixels(view_image(state, {0}), get_image(state)));
   auto normal = average_layer(state.buffer, aov_type::normal);
   auto depth  = average_layer(state.buffer, aov_type::depth);
-  auto shown  = view_image(state, 1 + (int)aov_type::normal);
-  auto gray   = view_image(state, 1 + (int)aov_type::depth);
+  auto shown  = view_image(state, {1 + (int)aov_type::normal});
+  auto gray   = view_image(state, {1 + (int)aov_type::depth});
   for (size_t idx = 0; idx < shown.pixels.size(); idx++) {
     CHECK(shown.pixels[idx].x == normal.values[idx * 3] * 0.5f + 0.5f);
     CHECK(shown.pixels[idx].z == normal.values[idx * 3 + 2] * 0.5f + 0.5f);
     CHECK(gray.pixels[idx].y == depth.values[idx]);
     CHECK(gray.pixels[idx].w == 1);
   }
+}
+
+TEST_CASE(
+    "render worker: a new view re-shows the render without starting over") {
+  auto params       = trace_params{};
+  params.resolution = 32;
+  params.samples    = 4;
+  params.pratio     = 1;
+  auto context      = load_example(params);
+  auto camera       = context->scene.cameras[params.camera];
+  auto kept         = viewer_params_for_views(params);
+
+  auto worker = render_worker{};
+  start_worker(worker, *context);
+  auto job      = restart_render(worker, {kept, camera, {}});
+  auto previews = 0, backwards = 0;
+  auto last = wait_finished(worker, job, params.samples, previews, backwards);
+  // Keeping every layer changes no pixel of the image.
+  CHECK(same_pixels(last.image, render_cli(*context, params, camera)));
+
+  // Denoised, by each method, then the normals: each comes as an update of
+  // the same job with the same samples, equal to the view of a render of
+  // the same samples.
+  auto state = make_render_state(*context, kept, camera);
+  REQUIRE(render_step(*context, state, params.samples, {}));
+  auto views = std::vector<render_view>{{0, true, denoise_method::nlm},
+      {0, true, denoise_method::nfor}, {1 + (int)aov_type::normal}, {0}};
+  for (auto& view : views) {
+    INFO("view ", view.view, " denoise ", view.denoise);
+    show_render(worker, view);
+    auto update  = render_update{};
+    auto timeout = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (!take_update(worker, update) &&
+           std::chrono::steady_clock::now() < timeout)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    CHECK(update.job == job);
+    CHECK(update.samples == params.samples);
+    CHECK(same_pixels(update.image, view_image(state, view)));
+  }
+  CHECK_FALSE(same_pixels(view_image(state, views[0]), last.image));
+  CHECK_FALSE(
+      same_pixels(view_image(state, views[0]), view_image(state, views[1])));
+  stop_worker(worker);
 }

@@ -4,7 +4,8 @@
 // Each frame the interface takes the latest finished image, if any, tonemaps
 // it to bytes and uploads it; it never waits for a render pass. Edits of the
 // camera or of a render setting post a new job, which the worker starts at
-// once with a preview; tonemap edits only re-tonemap the image it has.
+// once with a preview; edits of the view and of denoising re-show the
+// worker's render; tonemap edits only re-tonemap the image it has.
 
 #include "viewer.h"
 
@@ -196,13 +197,17 @@ struct viewer_state {
   int view = 0;  // 0: the image; k: the layer of aov_type k - 1
 };
 
-// Post the current parameters and camera as a new job (with the layer of
-// the view).
+// The view and denoising settings of the panel.
+static render_view current_view(const viewer_state& state) {
+  return {state.view, state.params.denoise, state.params.denoiser};
+}
+
+// Post the current parameters and camera as a new job, keeping what every
+// view reads.
 static void restart(viewer_state& state, render_worker& worker) {
-  auto params = state.params;
-  if (state.view > 0) params.aovs |= aov_bit((aov_type)(state.view - 1));
   state.job = restart_render(
-      worker, {params, state.cameras[state.params.camera], state.view});
+      worker, {viewer_params_for_views(state.params),
+                  state.cameras[state.params.camera], current_view(state)});
 }
 
 // Whether the image on screen has all the samples of the newest job.
@@ -281,11 +286,13 @@ static bool draw_option(
   return true;
 }
 
-// The viewer's options of one stage, in the table's order.
-static bool draw_options(render_settings& settings, render_option_stage stage) {
+// The viewer's options of one stage, in the table's order, those that
+// refilter or the others; returns whether any changed.
+static bool draw_options(render_settings& settings, render_option_stage stage,
+    bool refilter = false) {
   auto edited = false;
   for (auto& option : render_option_table())
-    if (option.viewer && option.stage == stage)
+    if (option.viewer && option.stage == stage && option.refilter == refilter)
       edited |= draw_option(settings, option);
   return edited;
 }
@@ -301,9 +308,15 @@ static bool draw_view(viewer_state& state) {
   return true;
 }
 
-// Render settings: the camera, then the table's; returns whether any
-// changed.
-static bool draw_render_settings(viewer_state& state) {
+// What the panel changed: the render (start over) or only how it is shown.
+struct panel_edits {
+  bool render = false;
+  bool view   = false;
+};
+
+// Render settings: the camera, then the table's (those that refilter in
+// `view`).
+static panel_edits draw_render_settings(viewer_state& state) {
   auto& params = state.params;
   auto  edited = false;
   auto  label  = camera_label(state, params.camera);
@@ -321,8 +334,9 @@ static bool draw_render_settings(viewer_state& state) {
   auto settings   = render_settings{};
   settings.params = params;
   edited |= draw_options(settings, render_option_stage::render);
-  params = settings.params;
-  return edited;
+  auto refiltered = draw_options(settings, render_option_stage::render, true);
+  params          = settings.params;
+  return {edited, refiltered};
 }
 
 // The linear value of the pixel under the mouse.
@@ -341,8 +355,8 @@ static void draw_inspector(
   ImGui::Text("alpha: %.4f", value.w);
 }
 
-// The panel; returns whether a render setting changed.
-static bool draw_panel(viewer_state& state, const viewer_params& viewer,
+// The panel; returns what changed.
+static panel_edits draw_panel(viewer_state& state, const viewer_params& viewer,
     vec2f window, vec2f mouse, const image_rect& rect) {
   ImGui::SetNextWindowPos({0, 0});
   ImGui::SetNextWindowSize({(float)viewer_panel_width, window.y});
@@ -361,9 +375,13 @@ static bool draw_panel(viewer_state& state, const viewer_params& viewer,
   if (state.has_image)
     ImGui::Text("%d x %d, %.3f s/pass", shown.image.width, shown.image.height,
         shown.seconds);
-  auto edited = draw_view(state);
-  if (ImGui::CollapsingHeader("render", ImGuiTreeNodeFlags_DefaultOpen))
-    edited |= draw_render_settings(state);
+  auto edited = panel_edits{};
+  edited.view = draw_view(state);
+  if (ImGui::CollapsingHeader("render", ImGuiTreeNodeFlags_DefaultOpen)) {
+    auto settings = draw_render_settings(state);
+    edited.render |= settings.render;
+    edited.view |= settings.view;
+  }
   if (ImGui::CollapsingHeader("tonemap", ImGuiTreeNodeFlags_DefaultOpen)) {
     auto settings            = render_settings{};
     settings.params.exposure = state.exposure;
@@ -457,12 +475,15 @@ void run_viewer(const render_context& context, const trace_params& params,
     auto  rect   = fit_image({state.texture.width, state.texture.height},
            {(float)viewer_panel_width, 0},
            {window.x - viewer_panel_width, window.y});
-    auto  restart_needed = draw_panel(state, viewer, window, mouse, rect);
-    restart_needed |= navigate(state);
+    auto  edits  = draw_panel(state, viewer, window, mouse, rect);
+    auto  restart_needed = edits.render || navigate(state);
     if (orbit && frame == viewer.orbit_frame)
       restart_needed |= navigate_camera(state.cameras[state.params.camera],
           navigation_mode::orbit, viewer.orbit, 0);
-    if (restart_needed) restart(state, worker);
+    if (restart_needed)
+      restart(state, worker);
+    else if (edits.view)
+      show_render(worker, current_view(state));
     if (state.has_image)
       ImGui::GetBackgroundDrawList()->AddImage(
           (ImTextureID)(intptr_t)state.texture.id, {rect.min.x, rect.min.y},

@@ -143,13 +143,17 @@ static std::vector<render_option> make_render_option_table() {
   time.max    = 1e9;
   time.viewer = false;
   append(time);
-  append(make_option(id::denoise, "denoise", type::flag,
-      "Denoise the images (and --savebatch images) with their per-pixel "
-      "statistics, albedo, normal and depth (image/denoise.h)"));
-  append(choice_option(id::denoiser, "denoiser", denoise_method_names,
+  auto denoise     = make_option(id::denoise, "denoise", type::flag,
+          "Denoise the images (and --savebatch images) with their per-pixel "
+              "statistics, albedo, normal and depth (image/denoise.h)");
+  denoise.refilter = true;
+  append(denoise);
+  auto denoiser = choice_option(id::denoiser, "denoiser", denoise_method_names,
       "Denoising method: nlm (NL-means, the fastest of the good ones), nfor "
       "(first-order regression: 10-30% lower error at 3x the time) or ttest "
-      "(per-pixel t-tests: the cheapest)"));
+      "(per-pixel t-tests: the cheapest)");
+  denoiser.refilter = true;
+  append(denoiser);
   return table;
 }
 

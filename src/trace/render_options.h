@@ -81,7 +81,10 @@ struct render_option {
   bool                cli    = true;   // ypathtrace --name
   bool                python = true;   // render(name=...)
   bool                viewer = true;   // a widget in the viewer's panel
-  std::string         help   = "";
+  // Acts on the samples a render has (denoising): the viewer re-shows its
+  // render for it instead of starting over.
+  bool        refilter = false;
+  std::string help     = "";
   // choice: the enum's name table (shader_type_names, ...), not a copy.
   const std::vector<std::string>* choices = nullptr;
 };
