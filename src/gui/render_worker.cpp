@@ -7,6 +7,8 @@
 #include <exception>
 #include <utility>
 
+#include "../util/progress.h"
+
 namespace implicit {
 
 // -----------------------------------------------------------------------------
@@ -46,11 +48,10 @@ trace_params preview_params(const trace_params& params) {
 // -----------------------------------------------------------------------------
 
 // Hand an image to the interface unless a newer job made it stale.
-static void publish(render_worker& worker, int64_t job, image_data&& image,
-    int samples, bool preview, double seconds) {
+static void publish(render_worker& worker, render_update&& update) {
   auto lock = std::lock_guard<std::mutex>{worker.mutex};
-  if (worker.latest.load() != job) return;
-  worker.update = {job, std::move(image), samples, preview, seconds};
+  if (worker.latest.load() != update.job) return;
+  worker.update = std::move(update);
   worker.fresh  = true;
 }
 
@@ -94,10 +95,20 @@ static render_view current_view(render_worker& worker) {
 }
 
 // Time spent on a job's passes and on denoising them, to keep the denoiser
-// under a quarter of the time while samples come in.
+// under a quarter of the time while samples come in and to tell the time
+// left.
 struct pass_times {
   double render = 0, denoise = 0;
 };
+
+// The fraction of pixels that adaptive sampling stopped (< 0: no threshold).
+static double converged_fraction(const render_state& state) {
+  if (state.params.noise_threshold <= 0) return -1;
+  auto& counts  = state.buffer.counts;
+  auto  stopped = std::count_if(counts.begin(), counts.end(),
+       [&](int count) { return count < state.samples; });
+  return counts.empty() ? 0 : (double)stopped / (double)counts.size();
+}
 
 // Publish the state as `view` (timing a denoised view), unless it is a
 // denoised view of an unfinished render that would take the denoiser past
@@ -107,10 +118,14 @@ static void publish_view(render_worker& worker, int64_t id,
     double seconds, pass_times& times) {
   auto filtered = view.view <= 0 && view.denoise;
   if (filtered && !finished && times.denoise > times.render / 4) return;
-  auto start = std::chrono::steady_clock::now();
-  auto image = view_image(state, view);
+  auto start  = std::chrono::steady_clock::now();
+  auto update = render_update{id, view_image(state, view), state.samples};
   if (filtered) times.denoise += elapsed(start);
-  publish(worker, id, std::move(image), state.samples, false, seconds);
+  update.seconds   = seconds;
+  update.remaining = estimate_remaining(
+      state.samples, state.params.samples, times.render + times.denoise);
+  update.converged = converged_fraction(state);
+  publish(worker, std::move(update));
 }
 
 // Preview, then passes until all samples are done or a newer job arrives;
@@ -126,8 +141,8 @@ static void render_job_passes(render_worker& worker, const render_job& job,
     if (!render_step_cancellable(context, preview, worker.latest, id)) return;
     auto view    = current_view(worker);
     view.denoise = false;  // one sample at a fraction of the resolution
-    publish(worker, id, view_image(preview, view), preview.samples, true,
-        elapsed(start));
+    publish(worker,
+        {id, view_image(preview, view), preview.samples, true, elapsed(start)});
   }
   state      = make_render_state(context, params, job.camera);
   auto times = pass_times{};

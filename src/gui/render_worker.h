@@ -77,6 +77,10 @@ struct render_update {
   int        samples = 0;      // samples per pixel in image
   bool       preview = false;  // rendered at resolution / pratio
   double     seconds = 0;      // time spent on the last pass
+  // Seconds left at the mean pass time so far (< 0: unknown), and the
+  // fraction of pixels adaptive sampling stopped (< 0: no threshold).
+  double remaining = -1;
+  double converged = -1;
 };
 
 // The worker and what it shares with the interface thread. The thread only

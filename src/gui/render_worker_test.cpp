@@ -6,6 +6,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <string>
 #include <thread>
@@ -262,4 +263,34 @@ TEST_CASE(
   CHECK_FALSE(
       same_pixels(view_image(state, views[0]), view_image(state, views[1])));
   stop_worker(worker);
+}
+
+TEST_CASE(
+    "render worker: updates tell the time left and the converged pixels") {
+  auto params            = trace_params{};
+  params.resolution      = 32;
+  params.samples         = 8;
+  params.pratio          = 1;
+  params.noise_threshold = 0.3f;
+  params.min_samples     = 2;
+  auto context           = load_example(params);
+  auto camera            = context->scene.cameras[params.camera];
+  auto kept              = viewer_params_for_views(params);
+
+  auto worker = render_worker{};
+  start_worker(worker, *context);
+  auto job      = restart_render(worker, {kept, camera, {}});
+  auto previews = 0, backwards = 0;
+  auto last = wait_finished(worker, job, params.samples, previews, backwards);
+  stop_worker(worker);
+  CHECK(last.remaining == 0);
+  // The fraction of pixels with fewer samples than the render's.
+  auto state = make_render_state(*context, kept, camera);
+  REQUIRE(render_step(*context, state, params.samples, {}));
+  auto& counts  = state.buffer.counts;
+  auto  stopped = std::count_if(
+       counts.begin(), counts.end(), [&](int c) { return c < params.samples; });
+  CHECK(stopped > 0);
+  CHECK(last.converged == doctest::Approx((double)stopped / counts.size()));
+  CHECK(same_pixels(last.image, get_image(state)));
 }

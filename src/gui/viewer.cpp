@@ -23,6 +23,7 @@
 #include "../image/image_io.h"
 #include "../trace/render_options.h"
 #include "../util/error.h"
+#include "../util/progress.h"
 #include "navigation.h"
 #include "render_worker.h"
 
@@ -370,6 +371,10 @@ static panel_edits draw_panel(viewer_state& state, const viewer_params& viewer,
   auto  overlay = shown.preview ? std::string{"preview"}
                                 : "sample " + std::to_string(samples) + "/" +
                                      std::to_string(state.params.samples);
+  if (!shown.preview && shown.remaining > 0)
+    overlay += ", eta " + format_duration(shown.remaining);
+  if (!shown.preview && shown.converged >= 0)
+    overlay += ", conv " + std::to_string((int)(100 * shown.converged)) + "%";
   ImGui::ProgressBar(
       (float)samples / state.params.samples, {-1, 0}, overlay.c_str());
   if (state.has_image)

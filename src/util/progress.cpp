@@ -30,6 +30,17 @@ std::string format_duration(double seconds) {
   return buffer;
 }
 
+double estimate_remaining(
+    int current, int total, double elapsed_seconds, double limit) {
+  total   = std::max(total, 0);
+  current = std::clamp(current, 0, total);
+  if (current == total) return 0;
+  if (current == 0) return -1;
+  auto eta = std::max(elapsed_seconds, 0.0) * (total - current) / current;
+  return limit > 0 ? std::max(std::min(eta, limit - elapsed_seconds), 0.0)
+                   : eta;
+}
+
 // The progress line: bar, counts, elapsed, ETA, message.
 std::string format_progress(const std::string& message, int current, int total,
     double elapsed_seconds, double limit, double converged) {
@@ -45,17 +56,8 @@ std::string format_progress(const std::string& message, int current, int total,
   std::snprintf(counts, sizeof(counts), "%4d/%4d ", current, total);
   line += counts;
   line += format_duration(elapsed_seconds);
-  // Remaining time assumes every step costs the mean of the steps so far.
-  line += " eta ";
-  if (current == total) {
-    line += format_duration(0);
-  } else if (current == 0) {
-    line += "--:--";
-  } else {
-    auto eta = std::max(elapsed_seconds, 0.0) * (total - current) / current;
-    if (limit > 0) eta = std::min(eta, limit - elapsed_seconds);
-    line += format_duration(eta);
-  }
+  auto eta = estimate_remaining(current, total, elapsed_seconds, limit);
+  line += " eta " + (eta < 0 ? std::string{"--:--"} : format_duration(eta));
   if (converged >= 0) {
     char percent[32];
     std::snprintf(percent, sizeof(percent), " conv %d%%",

@@ -28,6 +28,12 @@ namespace implicit {
 std::string format_progress(const std::string& message, int current, int total,
     double elapsed_seconds, double limit = 0, double converged = -1);
 
+// Seconds left when `current` of `total` steps took `elapsed_seconds`, each
+// step costing the mean of those so far (0 when done, negative before the
+// first step: unknown); never past a time `limit` (seconds, 0: none).
+double estimate_remaining(
+    int current, int total, double elapsed_seconds, double limit = 0);
+
 // A time in seconds as mm:ss (minutes grow past 99; negative or NaN as 0).
 std::string format_duration(double seconds);
 

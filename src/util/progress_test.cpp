@@ -127,4 +127,16 @@ TEST_CASE("progress printing when disabled") {
   std::fclose(stream);
 }
 
+TEST_CASE(
+    "progress: the time left is the mean step time times the steps left") {
+  CHECK(estimate_remaining(16, 64, 4.0) == 12.0);
+  CHECK(estimate_remaining(1, 3, 10.0) == 20.0);
+  CHECK(estimate_remaining(0, 64, 1.0) < 0);  // unknown
+  CHECK(estimate_remaining(64, 64, 9.0) == 0);
+  CHECK(estimate_remaining(70, 64, 9.0) == 0);  // clamped
+  // A time limit caps it, never below zero.
+  CHECK(estimate_remaining(16, 64, 4.0, 10.0) == 6.0);
+  CHECK(estimate_remaining(16, 64, 4.0, 3.0) == 0);
+}
+
 }  // namespace implicit
