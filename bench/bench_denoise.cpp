@@ -160,8 +160,11 @@ static void bench_adaptive(const render_context& context, trace_params params,
     auto adaptive_seconds  = 0.0;
     auto adaptive =
         buffer_render(context, params, opts.samples * 16, adaptive_seconds);
-    auto total = 0.0;
-    for (auto count : adaptive.counts) total += count;
+    auto total = 0.0, capped = 0.0;
+    for (auto count : adaptive.counts) {
+      total += count;
+      capped += count == opts.samples * 16 ? 1 : 0;
+    }
     params.noise_threshold = 0;
     auto samples =
         std::max(1, (int)std::lround(adaptive_seconds / seconds_per_sample));
@@ -173,10 +176,12 @@ static void bench_adaptive(const render_context& context, trace_params params,
     // even when the uniform render's time missed the adaptive one's.
     auto ratio = (u * uniform_seconds) / (a * adaptive_seconds);
     std::printf(
-        "  adaptive %.3f: relMSE %.5f (%.1f spp on average, %.2f CPU s); "
-        "uniform %d spp: %.5f (%.2f CPU s); relMSE x time %.2fx lower\n",
-        threshold, a, total / adaptive.counts.size(), adaptive_seconds, samples,
-        u, uniform_seconds, ratio);
+        "  adaptive %.3f: relMSE %.5f (%.1f spp on average, %.0f%% of the "
+        "pixels at the cap, %.2f CPU s); uniform %d spp: %.5f (%.2f CPU s); "
+        "relMSE x time %.2fx lower\n",
+        threshold, a, total / adaptive.counts.size(),
+        100 * capped / adaptive.counts.size(), adaptive_seconds, samples, u,
+        uniform_seconds, ratio);
     ratios.push_back(ratio);
   }
   if (ratios.size() < 2) return;
