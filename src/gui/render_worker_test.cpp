@@ -10,6 +10,7 @@
 #include <chrono>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "navigation.h"
 #include "scene/scene_io.h"
@@ -68,6 +69,19 @@ render_update wait_finished(render_worker& worker, int64_t job, int samples,
   }
   FAIL("the worker did not finish in 30 s");
   return last;
+}
+
+// Start `worker` on a job of `params` with every layer kept (as the viewer
+// posts them) and wait for its last sample; returns the job and its last
+// update.
+std::pair<int64_t, render_update> run_viewer_job(render_worker& worker,
+    const render_context& context, const trace_params& params,
+    const camera_data& camera) {
+  start_worker(worker, context);
+  auto job =
+      restart_render(worker, {viewer_params_for_views(params), camera, {}});
+  auto previews = 0, backwards = 0;
+  return {job, wait_finished(worker, job, params.samples, previews, backwards)};
 }
 
 }  // namespace
@@ -231,12 +245,8 @@ TEST_CASE(
   auto context      = load_example(params);
   auto camera       = context->scene.cameras[params.camera];
   auto kept         = viewer_params_for_views(params);
-
-  auto worker = render_worker{};
-  start_worker(worker, *context);
-  auto job      = restart_render(worker, {kept, camera, {}});
-  auto previews = 0, backwards = 0;
-  auto last = wait_finished(worker, job, params.samples, previews, backwards);
+  auto worker       = render_worker{};
+  auto [job, last]  = run_viewer_job(worker, *context, params, camera);
   // Keeping every layer changes no pixel of the image.
   CHECK(same_pixels(last.image, render_cli(*context, params, camera)));
 
@@ -276,12 +286,8 @@ TEST_CASE(
   auto context           = load_example(params);
   auto camera            = context->scene.cameras[params.camera];
   auto kept              = viewer_params_for_views(params);
-
-  auto worker = render_worker{};
-  start_worker(worker, *context);
-  auto job      = restart_render(worker, {kept, camera, {}});
-  auto previews = 0, backwards = 0;
-  auto last = wait_finished(worker, job, params.samples, previews, backwards);
+  auto worker            = render_worker{};
+  auto last = run_viewer_job(worker, *context, params, camera).second;
   stop_worker(worker);
   CHECK(last.remaining == 0);
   // The fraction of pixels with fewer samples than the render's.
