@@ -89,7 +89,7 @@ image_data view_image(const render_state& state, const render_view& view) {
 }
 
 // The view the interface asks for now.
-static render_view current_view(render_worker& worker) {
+static render_view asked_view(render_worker& worker) {
   auto lock = std::lock_guard<std::mutex>{worker.mutex};
   return worker.job.view;
 }
@@ -139,7 +139,7 @@ static void render_job_passes(render_worker& worker, const render_job& job,
         make_render_state(context, preview_params(params), job.camera);
     auto start = std::chrono::steady_clock::now();
     if (!render_step_cancellable(context, preview, worker.latest, id)) return;
-    auto view    = current_view(worker);
+    auto view    = asked_view(worker);
     view.denoise = false;  // one sample at a fraction of the resolution
     publish(worker,
         {id, view_image(preview, view), preview.samples, true, elapsed(start)});
@@ -151,7 +151,7 @@ static void render_job_passes(render_worker& worker, const render_job& job,
     if (!render_step_cancellable(context, state, worker.latest, id)) return;
     auto seconds = elapsed(start);
     times.render += seconds;
-    publish_view(worker, id, state, current_view(worker),
+    publish_view(worker, id, state, asked_view(worker),
         state.samples == params.samples, seconds, times);
   }
 }
