@@ -107,7 +107,7 @@ struct field_ray {
     auto f =
         eval_sdf_slope(field->full, begin(region), end(region), piece, ray.d);
     auto slope = mag(f.d[0]);
-    return {f.v, slope == slope ? slope : flt_inf};
+    return {f.v, slope == slope ? slope : flt_inf, f.d[0]};
   }
 };
 

@@ -56,10 +56,12 @@ struct segment_region {
   float    slope  = flt_inf;
 };
 
-// Range and slope bound over a piece of the ray (the box of its ends).
+// Range and slope bound over a piece of the ray (the box of its ends), and
+// the interval of df/dt there (its sign tells which way f may move).
 struct segment_bound {
-  interval range = entire_interval;
-  float    slope = flt_inf;
+  interval range      = entire_interval;
+  float    slope      = flt_inf;
+  interval derivative = entire_interval;
 };
 
 // The function along one ray, as the march sees it (accel.cpp adapts an
@@ -96,16 +98,23 @@ inline constexpr int segment_evaluation_factor = 4;
 
 // What the march has learned so far along the ray.
 struct segment_state {
-  bool  start_inside    = false;  // side of the ray's start (f < 0)
-  float last_t          = 0;      // everything before it is on the start side
-  float last_f          = 0;      // f at last_t when `have_last`
-  bool  have_last       = false;
+  bool  start_inside = false;  // side of the ray's start (f < 0)
+  float last_t       = 0;      // everything before it is on the start side
+  float last_f       = 0;      // f at last_t when `have_last`
+  bool  have_last    = false;
+  // A proven lower bound of |f| at margin_t, on the start side (0: none):
+  // what a step that crossed a region whole leaves of |f| at its end, so
+  // the next region may be crossed without an evaluation.
+  float margin          = 0;
+  float margin_t        = 0;
   float cutoff          = flt_max;
   int   evaluations     = 0;
   int   max_evaluations = 0;
-  // A bracket [lo, hi] of the first change of side, once found.
+  // A bracket [lo, hi] of the first change of side, once found, and f at
+  // its ends where known (else NaN).
   bool  found = false;
   float lo = 0, hi = 0;
+  float f_lo = flt_nan, f_hi = flt_nan;
 };
 
 // Whether f lies inside (NaN counts as outside).
@@ -117,11 +126,22 @@ inline float segment_epsilon(
   return std::max(hit_min, params.hit_relative * t);
 }
 
-// Note a change of side first seen at `t` (its value on the other side).
-inline void segment_bracket(segment_state& state, float t) {
+// Note a change of side first seen at `t` (its value there `f`, if known).
+inline void segment_bracket(segment_state& state, float t, float f = flt_nan) {
   state.found = true;
   state.lo    = state.last_t;
   state.hi    = t;
+  state.f_lo  = state.have_last ? state.last_f : flt_nan;
+  state.f_hi  = f;
+}
+
+// Note that everything up to `t` lies on the start side and that |f| >=
+// margin there (0: unknown).
+inline void segment_skip(segment_state& state, float t, float margin) {
+  state.last_t    = t;
+  state.have_last = false;
+  state.margin    = margin;
+  state.margin_t  = t;
 }
 
 // Note that f at t (on the start side) was checked with everything before.
@@ -131,25 +151,51 @@ inline void segment_advance(segment_state& state, float t, float f) {
   state.have_last = true;
 }
 
-// A segment of the ray ahead with its own slope bound (Galin et al.'s local
-// Lipschitz bound of the segment), kept for every step that starts in it.
+// A segment of the ray ahead with its own bound of df/dt (Galin et al.'s
+// local Lipschitz bound of the segment, signed), kept for every step that
+// starts in it.
 struct segment_local {
-  float end    = 0;        // the bound holds up to here
-  float slope  = flt_inf;  // 0 where the segment's range excludes 0
-  float length = 0;        // of the segment
-  float next   = 0;        // length of the next one
+  float    end        = 0;                // the bound holds up to here
+  interval derivative = entire_interval;  // of f along the ray there
+  bool     empty      = false;            // the segment's range excludes 0
+  float    length     = 0;                // of the segment
+  float    next       = 0;                // length of the next one
 };
 
-// Bound of the step from t where the region's slope bound allows `safe`:
-// when that covers little of the stretch to b, the bound over a segment
-// ahead may allow more. A segment serves the steps that start in it while
-// they stay a fair part of it (a long segment's bound is loose where the
-// steps get short, near a surface); the next one is twice as long when a
-// step could cross it whole, else four times the last step (or the
-// region's). A segment whose range excludes 0 is crossed whole.
+// How fast f may move towards the other side of the surface over a
+// segment where df/dt lies in `derivative`: its lower end when f starts
+// outside (f falls to 0), its upper end inside; 0 when f cannot move that
+// way, +inf when unknown (NaN).
+inline float segment_approach(interval derivative, bool start_inside) {
+  auto rate = start_inside ? derivative.hi : -derivative.lo;
+  return rate == rate ? std::max(rate, 0.0f) : flt_inf;
+}
+
+// Whether f moves strictly towards the other side over the whole segment:
+// then it crosses 0 at most once there, and the value at the segment's end
+// decides whether it does.
+inline bool segment_monotone(interval derivative, bool start_inside) {
+  return start_inside ? derivative.lo > 0 : derivative.hi < 0;
+}
+
+// Step from t where the region's slope bound allows `safe`: when that
+// covers little of the stretch to b, the bound over a segment ahead may
+// allow more. A segment serves the steps that start in it while they stay a
+// fair part of it (a long segment's bound is loose where the steps get
+// short, near a surface); the next one is twice as long when a step could
+// cross it whole, else four times the last step (or the region's). Within a
+// segment, f cannot reach 0 before |f| over its approach rate (the signed
+// bound: a slope away from the surface does not shorten the step); a
+// segment whose range excludes 0 is crossed whole. Where f moves strictly
+// towards the surface over the whole segment the step goes to its end and
+// is `decisive`: no root-free step, but one whose end value tells whether
+// the segment holds the (single) root, so the march brackets it at once
+// instead of creeping up to it (Newton's method refines it).
 template <typename Function>
 inline float segment_local_step(const Function& function, int region, float t,
-    float b, float f, float safe, segment_local& local, segment_state& state) {
+    float b, float f, float safe, segment_local& local, segment_state& state,
+    bool& decisive) {
+  decisive = false;
   if (safe >= (b - t) * segment_local_fraction) return safe;
   auto step = 0.0f, ahead = local.end - t;
   for (auto fresh = false; !fresh;) {
@@ -158,15 +204,21 @@ inline float segment_local_step(const Function& function, int region, float t,
       local.length = std::min(b - t, std::max(4 * safe, local.next));
       auto bound   = function.bound(region, t, t + local.length);
       state.evaluations++;
-      auto range  = bound.range;
-      local.end   = t + local.length;
-      local.slope = !is_entire(range) && (range.hi < 0 || range.lo >= 0)
-                        ? 0
-                        : bound.slope;
-      ahead       = local.length;
+      auto range       = bound.range;
+      local.end        = t + local.length;
+      local.empty      = !is_entire(range) && (range.hi < 0 || range.lo >= 0);
+      local.derivative = bound.derivative;
+      ahead            = local.length;
     }
-    step = local.slope > 0 ? std::abs(f) / local.slope : ahead;
-    if (!(step >= 0)) step = 0;  // an unbounded slope: inf / inf
+    auto rate = segment_approach(local.derivative, state.start_inside);
+    step      = local.empty || rate == 0 ? ahead : std::abs(f) / rate;
+    if (!(step >= 0)) step = 0;  // an unknown slope: inf / inf
+    if (!local.empty && f == f &&
+        segment_monotone(local.derivative, state.start_inside) &&
+        step < ahead) {
+      decisive = true;
+      return ahead;
+    }
     local.next = step >= ahead ? 2 * local.length : 4 * step;
     if (!fresh && step < local.length * segment_local_fraction)
       local.end = t;  // too loose here: a shorter segment from t
@@ -187,13 +239,18 @@ inline void segment_lipschitz(const Function& function, int region, float slope,
     segment_state& state) {
   auto t = a;
   auto f = 0.0f;
+  if (state.margin > 0 && state.margin_t == a &&
+      state.margin >= slope * (b - a)) {
+    // What the last region left of |f| crosses this one whole.
+    return segment_skip(state, b, state.margin - slope * (b - a));
+  }
   if (state.have_last && state.last_t == a) {
     f = state.last_f;
   } else {
     f = function.value(region, t);
     state.evaluations++;
     if (segment_inside(f) != state.start_inside)
-      return segment_bracket(state, t);
+      return segment_bracket(state, t, f);
     segment_advance(state, t, f);
   }
   auto local = segment_local{};
@@ -203,20 +260,24 @@ inline void segment_lipschitz(const Function& function, int region, float slope,
     // the threshold.
     auto safe = std::abs(f) / slope;
     if (!(safe >= 0)) safe = 0;
-    safe = segment_local_step(function, region, t, b, f, safe, local, state);
-    if (t + safe >= b) {
-      // No root before the end: the next region takes over from there.
-      state.last_t    = b;
-      state.have_last = false;
+    auto decisive = false;
+    safe          = segment_local_step(
+                 function, region, t, b, f, safe, local, state, decisive);
+    if (!decisive && t + safe >= b) {
+      // No root before the end: the next region takes over from there,
+      // with what the region's bound leaves of |f| at b.
+      auto margin = std::abs(f) - slope * (b - t);
+      segment_skip(state, b, margin > 0 ? margin : 0);
       return;
     }
-    auto step = std::max(safe, segment_epsilon(params, hit_min, t));
+    auto step =
+        decisive ? safe : std::max(safe, segment_epsilon(params, hit_min, t));
     auto next = std::min(t + step, b);
     if (next <= t) next = float_up(t, 1);
     f = function.value(region, next);
     state.evaluations++;
     if (segment_inside(f) != state.start_inside)
-      return segment_bracket(state, next);
+      return segment_bracket(state, next, f);
     t = next;
     segment_advance(state, t, f);
   }
@@ -294,7 +355,7 @@ inline void segment_isolate(const Function& function, int region,
       auto f = function.value(region, piece.b);
       state.evaluations++;
       if (segment_inside(f) != state.start_inside)
-        return segment_bracket(state, piece.b);
+        return segment_bracket(state, piece.b, f);
       segment_advance(state, piece.b, f);
       continue;
     }
@@ -304,20 +365,33 @@ inline void segment_isolate(const Function& function, int region,
 }
 
 // Refine a bracket [lo, hi] (lo on the start side, hi on the other) to the
-// root: Newton steps on the exact derivative from the last point evaluated,
-// bisection when a step leaves the bracket. Returns the start-side end.
+// root: a secant step first where f is known at both ends, then Newton
+// steps on the exact derivative from the last point evaluated, bisection
+// when a step leaves the bracket. Newton's iterates near a root approach it
+// from one side and would leave the far end of the bracket where it is, so
+// a correction shorter than half the tolerance steps half the tolerance
+// instead: past the root, which closes the bracket. Returns the start-side
+// end.
 template <typename Function>
 inline float segment_refine(const Function& function, float lo, float hi,
-    bool start_inside, float tolerance, int& evaluations) {
+    float f_lo, float f_hi, bool start_inside, float tolerance,
+    int& evaluations) {
   auto x = 0.0f, fx = 0.0f, gx = 0.0f;
   auto have_point = false;
   for (auto step = 0; step < segment_root_steps; step++) {
-    if (!(hi - lo > std::max(tolerance, 4 * flt_eps * std::abs(hi)))) break;
-    auto next = lo + (hi - lo) * 0.5f;
+    auto width = std::max(tolerance, 4 * flt_eps * std::abs(hi));
+    if (!(hi - lo > width)) break;
+    auto next  = lo + (hi - lo) * 0.5f;
+    auto guess = next;
     if (have_point && gx != 0) {
-      auto newton = x - fx / gx;
-      if (newton > lo && newton < hi) next = newton;
+      auto delta = -fx / gx;
+      if (std::abs(delta) < width * 0.5f)
+        delta = std::copysign(width * 0.5f, delta);
+      guess = x + delta;
+    } else if (step == 0 && std::isfinite(f_lo - f_hi) && f_lo != f_hi) {
+      guess = lo + (hi - lo) * (f_lo / (f_lo - f_hi));
     }
+    if (guess > lo && guess < hi) next = guess;
     auto region = function.locate(next).region;
     auto value  = function.value_slope(region, next);
     evaluations++;
@@ -359,8 +433,8 @@ inline march_result segment_trace(const Function& function, float t0, float t1,
       if ((range.hi < 0) != state.start_inside) {
         segment_bracket(state, t);
       } else {
-        state.last_t    = end;
-        state.have_last = false;
+        // The range holds at the region's closed box, its exit included.
+        segment_skip(state, end, range.hi < 0 ? -range.hi : range.lo);
       }
     } else if (region.slope < flt_inf) {
       segment_lipschitz(function, region.region, region.slope, t, end, params,
@@ -375,8 +449,9 @@ inline march_result segment_trace(const Function& function, float t0, float t1,
   result.evaluations = state.evaluations;
   if (!state.found) return result;
   auto epsilon  = segment_epsilon(params, hit_min, state.lo);
-  auto distance = segment_refine(function, state.lo, state.hi,
-      state.start_inside, epsilon * segment_root_fraction, result.evaluations);
+  auto distance = segment_refine(function, state.lo, state.hi, state.f_lo,
+      state.f_hi, state.start_inside, epsilon * segment_root_fraction,
+      result.evaluations);
   // The march's guarantees end at the cutoff: a later hit is no hit.
   if (distance > cutoff) return result;
   result.hit      = true;
