@@ -476,6 +476,41 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
   CHECK(constant > 100);
 }
 
+TEST_CASE("sdf bounds: where a repeat changes copy") {
+  // Spheres every 1 along x, 2 copies each side, moved by 0.25: borders at
+  // x = -1.25, -0.25, 0.75 and 1.75 (child x = +-0.5, +-1.5).
+  auto program  = sdf_program{};
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.2f;
+  auto repeat   = sdf_node{};
+  repeat.type   = sdf_type::op_repeat;
+  repeat.size   = {1, 0, 0};
+  repeat.count  = {2, -1, -1};
+  repeat.left   = add_node(program, sphere);
+  auto move     = sdf_node{};
+  move.type     = sdf_type::op_transform;
+  move.left     = add_node(program, repeat);
+  move.frame    = 0;
+  program.frames.push_back(
+      frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-0.25f, 0, 0}});
+  program.frame_scales.push_back(1);
+  add_node(program, move);
+  auto tape   = make_sdf_tape(program);
+  auto border = [&](float x0, float x1) {
+    return find_sdf_repeat_border(tape, tape.clauses.data(),
+        tape.clauses.data() + tape.clauses.size(), {x0, 0.3f, 0},
+        {x1, 0.3f, 0});
+  };
+  CHECK(border(0, 1) == doctest::Approx(0.75f));
+  CHECK(border(1, 0) == doctest::Approx(0.25f));
+  // Two borders ahead: the first, at -0.25.
+  CHECK(border(-1, 1) == doctest::Approx(0.375f));
+  // Inside one copy, and past the last (the copies are clamped): none.
+  CHECK(std::isnan(border(0.1f, 0.3f)));
+  CHECK(std::isnan(border(3, 5)));
+}
+
 TEST_CASE("sdf bounds: jumps, poles and overflow hold their values") {
   // Each clause over boxes that straddle its jumps, poles or overflow: every
   // value at a point of the box lies in the box's interval (or the interval

@@ -1,6 +1,8 @@
 // # implicit: SDF tapes (derivatives and bounds over boxes)
 
+#include <algorithm>
 #include <cassert>
+#include <cmath>
 
 #include "sdf_tape_eval.h"
 
@@ -78,6 +80,55 @@ float eval_sdf_lipschitz(const sdf_tape& pool, const sdf_clause* begin,
 float eval_sdf_lipschitz(const sdf_tape& tape, const bbox3f& box) {
   return eval_sdf_lipschitz(tape, tape.clauses.data(),
       tape.clauses.data() + tape.clauses.size(), box);
+}
+
+// -----------------------------------------------------------------------------
+// JUMPS
+// -----------------------------------------------------------------------------
+
+// The copy of a repeat that coordinate `x` falls in (repeat_axis's n).
+static float repeat_copy(float x, float size, int count) {
+  auto n = std::round(x / size);
+  return count >= 0 ? std::clamp(n, (float)-count, (float)count) : n;
+}
+
+float find_sdf_repeat_border(const sdf_tape& pool, const sdf_clause* begin,
+    const sdf_clause* end, vec3f p0, vec3f p1) {
+  // The point clauses alone, at both ends (registers as the tape has them).
+  vec3f points0[sdf_max_points], points1[sdf_max_points];
+  auto  nearest = flt_nan;
+  for (auto c = begin; c != end; ++c) {
+    if (!is_point_op(c->op)) continue;
+    if (c->op == sdf_op::input) {
+      points0[c->out] = p0;
+      points1[c->out] = p1;
+      continue;
+    }
+    if (c->op == sdf_op::map) {
+      points0[c->out] = map_point(pool, (int)c->param, points0[c->a]);
+      points1[c->out] = map_point(pool, (int)c->param, points1[c->a]);
+      continue;
+    }
+    auto& node = pool.nodes[c->param];
+    auto  q0 = points0[c->a], q1 = points1[c->a];
+    int   counts[3] = {node.count.x, node.count.y, node.count.z};
+    for (auto a = 0; c->op == sdf_op::repeat && a < 3; a++) {
+      auto size  = at(node.size, a);
+      auto count = counts[a];
+      if (!(size > 0)) continue;
+      auto n0 = repeat_copy(at(q0, a), size, count);
+      auto n1 = repeat_copy(at(q1, a), size, count);
+      if (!(n0 != n1) || !(n0 == n0 && n1 == n1)) continue;
+      // The first border from q0's copy towards q1's, where the input
+      // would cross it moving linearly.
+      auto border = (n0 + (n1 > n0 ? 0.5f : -0.5f)) * size;
+      auto u      = (border - at(q0, a)) / (at(q1, a) - at(q0, a));
+      if (u > 0 && u < 1 && !(u >= nearest)) nearest = u;
+    }
+    points0[c->out] = warp_point(node, q0);
+    points1[c->out] = warp_point(node, q1);
+  }
+  return nearest;
 }
 
 }  // namespace implicit

@@ -93,6 +93,13 @@ struct field_ray {
     return {f.v, f.d[0]};
   }
 
+  float split(int region, float t0, float t1) const {
+    if (is_constant(region)) return flt_nan;
+    auto u = find_sdf_repeat_border(field->full, begin(region), end(region),
+        ray_point(ray, t0), ray_point(ray, t1));
+    return t0 + (t1 - t0) * u;  // NaN stays NaN
+  }
+
   segment_bound bound(int region, float t0, float t1) const {
     if (is_constant(region)) return {leaf(region).range, 0};
     auto a = ray_point(ray, t0), b = ray_point(ray, t1);

@@ -70,6 +70,9 @@ struct segment_bound {
 //   float value(int region, float t)     f at the ray point t
 //   vec2f value_slope(int region, float t)   f and df/dt there
 //   segment_bound bound(int region, float t0, float t1)   over [t0, t1]
+//   float split(int region, float t0, float t1)   a t in (t0, t1) where f
+//       may jump (a repeat's border), to split a piece without a slope
+//       bound there; NaN if none is known
 // `locate` must return t_exit > t except at the end of the ray.
 
 // -----------------------------------------------------------------------------
@@ -283,10 +286,28 @@ inline void segment_lipschitz(const Function& function, int region, float slope,
   }
 }
 
-// One piece of a region's stretch of the ray, for root isolation.
+// One piece of a region's stretch of the ray, for root isolation; a gap
+// (no longer than the hit threshold, around a jump) is only sampled at its
+// end.
 struct segment_piece {
   float a = 0, b = 0;
+  bool  gap = false;
 };
+
+// Sample f at t, the end of a piece: note a change of side (true) or
+// advance to it.
+template <typename Function>
+inline bool segment_sample(
+    const Function& function, int region, float t, segment_state& state) {
+  auto f = function.value(region, t);
+  state.evaluations++;
+  if (segment_inside(f) != state.start_inside) {
+    segment_bracket(state, t, f);
+    return true;
+  }
+  segment_advance(state, t, f);
+  return false;
+}
 
 // Whether f is NaN at both ends of a piece (the start's value is known
 // when the march checked it last): such a piece of a region where the value
@@ -328,6 +349,10 @@ inline void segment_isolate(const Function& function, int region,
     auto piece = stack[--count];
     if (piece.a > state.cutoff || state.evaluations >= state.max_evaluations)
       return;
+    if (piece.gap) {
+      if (segment_sample(function, region, piece.b, state)) return;
+      continue;
+    }
     auto bound = function.bound(region, piece.a, piece.b);
     state.evaluations++;
     auto range = bound.range;
@@ -349,14 +374,23 @@ inline void segment_isolate(const Function& function, int region,
     auto small  = length <= segment_epsilon(params, hit_min, piece.a) ||
                  (is_entire(range) && length <= coarse &&
                      segment_nan_ends(function, region, piece, state));
+    // Where f may jump inside (a repeat's border), a gap of the hit
+    // threshold around it is sampled at its end, and the parts on either
+    // side get bounds of their own: halving would close in on the jump
+    // only after as many levels as the piece has thresholds in it.
+    auto border = small ? flt_nan : function.split(region, piece.a, piece.b);
+    auto gap    = segment_epsilon(params, hit_min, piece.a) * 0.5f;
+    if (border - gap > piece.a && border + gap < piece.b &&
+        count + 3 <= segment_stack_size) {
+      stack[count++] = {border + gap, piece.b};
+      stack[count++] = {border - gap, border + gap, true};
+      stack[count++] = {piece.a, border - gap};
+      continue;
+    }
     auto mid = piece.a + length * 0.5f;
     if (small || count + 2 > segment_stack_size || !(mid > piece.a) ||
         !(mid < piece.b)) {
-      auto f = function.value(region, piece.b);
-      state.evaluations++;
-      if (segment_inside(f) != state.start_inside)
-        return segment_bracket(state, piece.b, f);
-      segment_advance(state, piece.b, f);
+      if (segment_sample(function, region, piece.b, state)) return;
       continue;
     }
     stack[count++] = {mid, piece.b};

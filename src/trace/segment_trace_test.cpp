@@ -83,6 +83,7 @@ struct closed_form_ray {
         make_dual_variable(p.z, 2));
     return {f.v, dot(gradient(f), ray.d)};
   }
+  float         split(int, float, float) const { return flt_nan; }
   segment_bound bound(int, float t0, float t1) const {
     auto a = ray_point(ray, t0), b = ray_point(ray, t1);
     return bound_box({min(a, b), max(a, b)});
