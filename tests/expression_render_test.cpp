@@ -300,6 +300,15 @@ TEST_CASE("expressions: repetition of a function that is no distance") {
   // 33 evaluations per ray when such pieces were halved down to the hit
   // threshold instead, 19 when split.
   CHECK(evaluations[0] < 25);
+  // Spheres wider than their copies, cut by the borders: there the value
+  // jumps from inside to outside, and the cut faces are hit.
+  check_dense(expression_scene(R"js({"name": "cut", "material": 0,
+      "type": "repeat", "spacing": [0.9, 0.9, 0], "limit": [1, 1, 0],
+      "operand": {"type": "displace",
+      "expression": "0.05*sin(15*x)*sin(15*y)*sin(15*z)",
+      "operand": {"type": "sphere", "radius": 0.55}},
+      "frame": [0.8, 0, 0.6, 0, 1, 0, -0.6, 0, 0.8, 0, 0, 0]})js"),
+      test_box, false);
 }
 
 TEST_CASE("expressions: accelerated and reference modes agree") {
