@@ -353,6 +353,23 @@ inline void segment_isolate(const Function& function, int region,
       if (segment_sample(function, region, piece.b, state)) return;
       continue;
     }
+    // Where f may jump inside (a repeat's border), a gap of the hit
+    // threshold around it is sampled at its end, and the parts on either
+    // side are taken in turn: a piece across a border has no slope bound
+    // and a range as wide as a whole copy's, so bounding it would be a
+    // wasted evaluation, and halving it would close in on the jump only
+    // after as many levels as the piece has thresholds in it.
+    auto gap    = segment_epsilon(params, hit_min, piece.a) * 0.5f;
+    auto border = piece.b - piece.a > 2 * gap
+                      ? function.split(region, piece.a, piece.b)
+                      : flt_nan;
+    if (border - gap > piece.a && border + gap < piece.b &&
+        count + 3 <= segment_stack_size) {
+      stack[count++] = {border + gap, piece.b};
+      stack[count++] = {border - gap, border + gap, true};
+      stack[count++] = {piece.a, border - gap};
+      continue;
+    }
     auto bound = function.bound(region, piece.a, piece.b);
     state.evaluations++;
     auto range = bound.range;
@@ -374,19 +391,6 @@ inline void segment_isolate(const Function& function, int region,
     auto small  = length <= segment_epsilon(params, hit_min, piece.a) ||
                  (is_entire(range) && length <= coarse &&
                      segment_nan_ends(function, region, piece, state));
-    // Where f may jump inside (a repeat's border), a gap of the hit
-    // threshold around it is sampled at its end, and the parts on either
-    // side get bounds of their own: halving would close in on the jump
-    // only after as many levels as the piece has thresholds in it.
-    auto border = small ? flt_nan : function.split(region, piece.a, piece.b);
-    auto gap    = segment_epsilon(params, hit_min, piece.a) * 0.5f;
-    if (border - gap > piece.a && border + gap < piece.b &&
-        count + 3 <= segment_stack_size) {
-      stack[count++] = {border + gap, piece.b};
-      stack[count++] = {border - gap, border + gap, true};
-      stack[count++] = {piece.a, border - gap};
-      continue;
-    }
     auto mid = piece.a + length * 0.5f;
     if (small || count + 2 > segment_stack_size || !(mid > piece.a) ||
         !(mid < piece.b)) {
