@@ -298,7 +298,7 @@ TEST_CASE("expressions: repetition of a function that is no distance") {
       "frame": [1, 0, 0, 0, 0.8, 0.6, 0, -0.6, 0.8, 0, 0, 0]})js"),
       test_box);
   // 33 evaluations per ray when such pieces were halved down to the hit
-  // threshold instead, 19 when split.
+  // threshold instead, 18 when split.
   CHECK(evaluations[0] < 25);
   // Spheres wider than their copies, cut by the borders: there the value
   // jumps from inside to outside, and the cut faces are hit.
