@@ -22,7 +22,11 @@
 //   than the hit threshold (Knoll et al.'s root isolation); pieces where the
 //   value may be NaN and is NaN at both ends stop at a coarser length, so a
 //   NaN region costs a fixed number of samples instead of a bisection down
-//   to the threshold, while its border is still bisected.
+//   to the threshold, while its border is still bisected; a piece across a
+//   known jump (a repeat's border) is cut there instead, around a gap of
+//   the hit threshold that is only sampled;
+// - a segment over which f moves strictly towards 0 holds at most one
+//   root, so the value at its end decides it at once.
 //
 // A hit is a change of side: inside means f < 0, and NaN counts as outside,
 // so NaN regions never stop a ray that starts outside. The first change is
