@@ -196,6 +196,22 @@ TEST_CASE("sdf bounds: intervals hold every value in their box") {
   CHECK(nan_values > 0);  // the NaN rule was exercised
 }
 
+// Spheres of radius 0.2 every 1 along x, `count` copies each side (< 0:
+// all).
+sdf_program repeated_spheres(int count) {
+  auto program  = sdf_program{};
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.2f;
+  auto repeat   = sdf_node{};
+  repeat.type   = sdf_type::op_repeat;
+  repeat.size   = {1, 0, 0};
+  repeat.count  = {count, -1, -1};
+  repeat.left   = add_node(program, sphere);
+  add_node(program, repeat);
+  return program;
+}
+
 TEST_CASE("sdf bounds: edge cases of intervals") {
   auto program = sdf_program{};
   auto x       = add_node(program, make_math(sdf_type::math_x));
@@ -243,16 +259,7 @@ TEST_CASE("sdf bounds: edge cases of intervals") {
   // sqrt at 0: unbounded slope; repeat across a cell boundary: a jump.
   CHECK(eval_sdf_lipschitz(tape_of(sdf_type::math_sqrt, false), box(0, 1)) ==
         flt_inf);
-  auto repeated = sdf_program{};
-  auto sphere   = sdf_node{};
-  sphere.type   = sdf_type::sphere;
-  sphere.radius = 0.2f;
-  auto repeat   = sdf_node{};
-  repeat.type   = sdf_type::op_repeat;
-  repeat.size   = {1, 0, 0};
-  repeat.left   = add_node(repeated, sphere);
-  add_node(repeated, repeat);
-  auto rtape = make_sdf_tape(repeated);
+  auto rtape = make_sdf_tape(repeated_spheres(-1));
   CHECK(eval_sdf_lipschitz(rtape, box(0.4f, 0.6f, 0, 0.1f)) == flt_inf);
   // Primitives bound each partial by their factor: sqrt(3) for a sphere.
   CHECK(eval_sdf_lipschitz(rtape, box(0.1f, 0.3f, 0, 0.1f)) <= 1.7321f);
@@ -479,23 +486,9 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
 TEST_CASE("sdf bounds: where a repeat changes copy") {
   // Spheres every 1 along x, 2 copies each side, moved by 0.25: borders at
   // x = -1.25, -0.25, 0.75 and 1.75 (child x = +-0.5, +-1.5).
-  auto program  = sdf_program{};
-  auto sphere   = sdf_node{};
-  sphere.type   = sdf_type::sphere;
-  sphere.radius = 0.2f;
-  auto repeat   = sdf_node{};
-  repeat.type   = sdf_type::op_repeat;
-  repeat.size   = {1, 0, 0};
-  repeat.count  = {2, -1, -1};
-  repeat.left   = add_node(program, sphere);
-  auto move     = sdf_node{};
-  move.type     = sdf_type::op_transform;
-  move.left     = add_node(program, repeat);
-  move.frame    = 0;
-  program.frames.push_back(
+  auto program = repeated_spheres(2);
+  add_transform(program, (int)program.nodes.size() - 1,
       frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-0.25f, 0, 0}});
-  program.frame_scales.push_back(1);
-  add_node(program, move);
   auto tape   = make_sdf_tape(program);
   auto border = [&](float x0, float x1) {
     return find_sdf_repeat_border(tape, tape.clauses.data(),
