@@ -300,6 +300,18 @@ TEST_CASE("expressions: repetition of a function that is no distance") {
   // 33 evaluations per ray when such pieces were halved down to the hit
   // threshold instead, 18 when split.
   CHECK(evaluations[0] < 25);
+  // The same repetition written with mod in a formula.
+  auto written = check_dense(
+      expression_scene(expression_object(
+          "sqrt((mod(x + 0.45, 0.9) - 0.45)^2 + y^2 + (mod(z + 0.45, 0.9) - "
+          "0.45)^2) - 0.3 + 0.05*sin(15*(mod(x + 0.45, 0.9) - 0.45))*sin(15*y)*"
+          "sin(15*(mod(z + 0.45, 0.9) - 0.45))",
+          R"js(, "bounds": [[-2.25, -0.4, -2.25], [2.25, 0.4, 2.25]],
+      "frame": [1, 0, 0, 0, 0.8, 0.6, 0, -0.6, 0.8, 0, 0, 0])js")),
+      test_box);
+  // Split at mod's steps as at the repeat's borders: 9.1 evaluations per
+  // ray, 11.9 when only repeat clauses were split.
+  CHECK(written[0] < 10.5);
   // Spheres wider than their copies, cut by the borders: there the value
   // jumps from inside to outside, and the cut faces are hit.
   check_dense(expression_scene(R"js({"name": "cut", "material": 0,

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "../math/random.h"
+#include "sdf_expression.h"
 #include "sdf_field.h"
 #include "sdf_simplify.h"
 #include "sdf_tape.h"
@@ -491,7 +492,7 @@ TEST_CASE("sdf bounds: where a repeat changes copy") {
       frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-0.25f, 0, 0}});
   auto tape   = make_sdf_tape(program);
   auto border = [&](float x0, float x1) {
-    return find_sdf_repeat_border(tape, tape.clauses.data(),
+    return find_sdf_jump(tape, tape.clauses.data(),
         tape.clauses.data() + tape.clauses.size(), {x0, 0.3f, 0},
         {x1, 0.3f, 0});
   };
@@ -502,6 +503,40 @@ TEST_CASE("sdf bounds: where a repeat changes copy") {
   // Inside one copy, and past the last (the copies are clamped): none.
   CHECK(std::isnan(border(0.1f, 0.3f)));
   CHECK(std::isnan(border(3, 5)));
+}
+
+TEST_CASE("sdf bounds: where floor, round, mod and compare jump") {
+  auto jump = [](const std::string& formula, vec3f p0, vec3f p1) {
+    auto program = sdf_program{};
+    parse_sdf_expression(program, formula);
+    auto tape = make_sdf_tape(program);
+    return find_sdf_jump(tape, tape.clauses.data(),
+        tape.clauses.data() + tape.clauses.size(), p0, p1);
+  };
+  // 2x from 0.2 to 1.8 reaches 1 half way; x / 0.5 from 0.4 to 1.4 reaches
+  // 1 at 0.6 of the way; round jumps at 0.5, either way; compare where x - y
+  // is 0.
+  CHECK(
+      jump("floor(2*x)", {0.1f, 0, 0}, {0.9f, 0, 0}) == doctest::Approx(0.5f));
+  CHECK(jump("ceil(x)", {-0.5f, 0, 0}, {0.5f, 0, 0}) == doctest::Approx(0.5f));
+  CHECK(jump("round(x)", {0, 0, 0}, {1, 0, 0}) == doctest::Approx(0.5f));
+  CHECK(jump("round(x)", {0.6f, 0, 0}, {0.4f, 0, 0}) == doctest::Approx(0.5f));
+  CHECK(
+      jump("mod(x, 0.5)", {0.2f, 0, 0}, {0.7f, 0, 0}) == doctest::Approx(0.6f));
+  auto compare = sdf_program{};
+  auto x       = add_node(compare, make_math(sdf_type::math_x));
+  auto y       = add_node(compare, make_math(sdf_type::math_y));
+  add_node(compare, make_math(sdf_type::math_compare, x, y));
+  auto ctape = make_sdf_tape(compare);
+  CHECK(find_sdf_jump(ctape, ctape.clauses.data(),
+            ctape.clauses.data() + ctape.clauses.size(), {0, 1, 0},
+            {2, 1, 0}) == doctest::Approx(0.5f));
+  // The nearest of two: floor(3x) at x = 1/3 before floor(x) at 1.
+  CHECK(jump("floor(x) + floor(3*x)", {0.1f, 0, 0}, {1.1f, 0, 0}) ==
+        doctest::Approx((1 / 3.0f - 0.1f) / 1.0f));
+  // No step between the ends, and no jumping clause: none.
+  CHECK(std::isnan(jump("floor(2*x)", {0.1f, 0, 0}, {0.4f, 0, 0})));
+  CHECK(std::isnan(jump("sin(x)", {0, 0, 0}, {9, 0, 0})));
 }
 
 TEST_CASE("sdf bounds: jumps, poles and overflow hold their values") {

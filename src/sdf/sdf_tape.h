@@ -250,14 +250,16 @@ float eval_sdf_lipschitz(const sdf_tape& pool, const sdf_clause* begin,
     const sdf_clause* end, const bbox3f& box);
 float eval_sdf_lipschitz(const sdf_tape& tape, const bbox3f& box);
 
-// Where the segment from p0 to p1 first crosses the border between two
-// copies of a repeat among the clauses [begin, end), where the value may
-// jump: the fraction of the way in (0, 1), estimated as if the repeat's
-// input moved linearly between its values at the ends (exact when only
-// frames lie above it); NaN when no repeat changes copy between the ends.
+// Where the segment from p0 to p1 first reaches a jump of the clauses
+// [begin, end): the border between two copies of a repeat, an integer for
+// floor and ceil, half way between two for round, a multiple of the divisor
+// for mod, 0 for compare's difference. The fraction of the way in (0, 1),
+// estimated as if each jumping clause's inputs moved linearly between their
+// values at the ends (exact for a repeat or floor of a coordinate under
+// frames only); NaN when no jumping clause changes branch between the ends.
 // A march splits a piece of a ray there, so that its parts have a slope
-// bound and a tight range (a piece across a border has neither).
-float find_sdf_repeat_border(const sdf_tape& pool, const sdf_clause* begin,
+// bound and a tight range (a piece across a jump has neither).
+float find_sdf_jump(const sdf_tape& pool, const sdf_clause* begin,
     const sdf_clause* end, vec3f p0, vec3f p1);
 
 // Unit gradient of a tape: analytic for a single simple primitive,

@@ -95,7 +95,7 @@ struct field_ray {
 
   float split(int region, float t0, float t1) const {
     if (is_constant(region)) return flt_nan;
-    auto u = find_sdf_repeat_border(field->full, begin(region), end(region),
+    auto u = find_sdf_jump(field->full, begin(region), end(region),
         ray_point(ray, t0), ray_point(ray, t1));
     return t0 + (t1 - t0) * u;  // NaN stays NaN
   }

@@ -23,8 +23,8 @@
 //   value may be NaN and is NaN at both ends stop at a coarser length, so a
 //   NaN region costs a fixed number of samples instead of a bisection down
 //   to the threshold, while its border is still bisected; a piece across a
-//   known jump (a repeat's border) is cut there instead, around a gap of
-//   the hit threshold that is only sampled;
+//   known jump (a repeat's border, a step of floor or mod) is cut there
+//   instead, around a gap of the hit threshold that is only sampled;
 // - a segment over which f moves strictly towards 0 holds at most one
 //   root, so the value at its end decides it at once.
 //
@@ -75,8 +75,8 @@ struct segment_bound {
 //   vec2f value_slope(int region, float t)   f and df/dt there
 //   segment_bound bound(int region, float t0, float t1)   over [t0, t1]
 //   float split(int region, float t0, float t1)   a t in (t0, t1) where f
-//       may jump (a repeat's border), to split a piece without a slope
-//       bound there; NaN if none is known
+//       may jump (a repeat's border, floor, mod), to split a piece without a
+//       slope bound there; NaN if none is known
 // `locate` must return t_exit > t except at the end of the ray.
 
 // -----------------------------------------------------------------------------
@@ -357,7 +357,7 @@ inline void segment_isolate(const Function& function, int region,
       if (segment_sample(function, region, piece.b, state)) return;
       continue;
     }
-    // Where f may jump inside (a repeat's border), a gap of the hit
+    // Where f may jump inside (a repeat's border, floor, mod), a gap of the hit
     // threshold around it is sampled at its end, and the parts on either
     // side are taken in turn: a piece across a border has no slope bound
     // and a range as wide as a whole copy's, so bounding it would be a
