@@ -423,6 +423,8 @@ sdf_tape make_sdf_tape(const sdf_program& program) {
                    " smooth union groups at once (too many shared "
                    "subexpressions, or groups nested too deep)");
   tape.lipschitz = sdf_lipschitz(program);
+  tape.jumps     = std::any_of(tape.clauses.begin(), tape.clauses.end(),
+          [](const sdf_clause& c) { return is_jump_op(c.op); });
   return tape;
 }
 

@@ -173,8 +173,17 @@ struct sdf_tape {
   std::vector<sdf_node>   nodes     = {};  // primitives and domain operators
   std::vector<frame3f>    frames    = {};  // composed maps of point spaces
   std::vector<float>      stretches = {};  // bound of each map's stretch
-  float lipschitz = 1;  // global bound (sdf_lipschitz; +inf if none)
+  float lipschitz = 1;     // global bound (sdf_lipschitz; +inf if none)
+  bool  jumps     = true;  // a clause may jump (is_jump_op); false: none
 };
+
+// Clauses whose value may jump: a repeat at its copies' borders, floor,
+// ceil, round, mod and compare at their steps.
+inline bool is_jump_op(sdf_op op) {
+  return op == sdf_op::repeat || op == sdf_op::math_floor ||
+         op == sdf_op::math_ceil || op == sdf_op::math_round ||
+         op == sdf_op::math_mod || op == sdf_op::math_compare;
+}
 
 // Compile a program. A primitive's node keeps in `frame` its composed map
 // (invalidid for none) and in `origin` its index in the program. Throws

@@ -143,12 +143,6 @@ static float math_crossing(
   }
 }
 
-static bool is_jump_clause(sdf_op op) {
-  return op == sdf_op::repeat || op == sdf_op::math_floor ||
-         op == sdf_op::math_ceil || op == sdf_op::math_round ||
-         op == sdf_op::math_mod || op == sdf_op::math_compare;
-}
-
 float find_sdf_jump(const sdf_tape& pool, const sdf_clause* begin,
     const sdf_clause* end, vec3f p0, vec3f p1) {
   // The tape at both ends, run up to each jumping clause in turn, whose
@@ -158,8 +152,9 @@ float find_sdf_jump(const sdf_tape& pool, const sdf_clause* begin,
   sdf_smooth_floats groups0[sdf_max_groups], groups1[sdf_max_groups];
   auto              nearest = flt_nan;
   auto              done    = begin;
+  if (!pool.jumps) return nearest;  // the tape's clauses, and any subset
   for (auto c = begin; c != end; ++c) {
-    if (!is_jump_clause(c->op)) continue;
+    if (!is_jump_op(c->op)) continue;
     run_sdf_clauses(pool, done, c, values0, points0, groups0, p0, 0.0f);
     run_sdf_clauses(pool, done, c, values1, points1, groups1, p1, 0.0f);
     done   = c;

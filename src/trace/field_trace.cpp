@@ -101,7 +101,7 @@ struct field_ray {
   }
 
   segment_bound bound(int region, float t0, float t1) const {
-    if (is_constant(region)) return {leaf(region).range, 0};
+    if (is_constant(region)) return {leaf(region).range, interval{0}};
     auto a = ray_point(ray, t0), b = ray_point(ray, t1);
     auto piece = bbox3f{min(a, b), max(a, b)};
     // A simplified tape holds inside its cell only: keep the piece there
@@ -113,8 +113,7 @@ struct field_ray {
     // df/dt over the piece, by forward-mode derivatives along the ray.
     auto f =
         eval_sdf_slope(field->full, begin(region), end(region), piece, ray.d);
-    auto slope = mag(f.d[0]);
-    return {f.v, slope == slope ? slope : flt_inf, f.d[0]};
+    return {f.v, f.d[0]};
   }
 };
 

@@ -60,13 +60,23 @@ struct segment_region {
   float    slope  = flt_inf;
 };
 
-// Range and slope bound over a piece of the ray (the box of its ends), and
-// the interval of df/dt there (its sign tells which way f may move).
+// Range over a piece of the ray (the box of its ends), and the interval of
+// df/dt there (its sign tells which way f may move).
 struct segment_bound {
   interval range      = entire_interval;
-  float    slope      = flt_inf;
   interval derivative = entire_interval;
 };
+
+// Bound of |df/dt| from its interval (+inf if none).
+inline float segment_slope(interval derivative) {
+  auto slope = mag(derivative);
+  return slope == slope ? slope : flt_inf;
+}
+
+// Whether a range holds one side of the surface only (no root).
+inline bool segment_one_side(interval range) {
+  return !is_entire(range) && (range.hi < 0 || range.lo >= 0);
+}
 
 // The function along one ray, as the march sees it (accel.cpp adapts an
 // object's field; tests adapt closed forms). Any type with these members:
@@ -213,7 +223,7 @@ inline float segment_local_step(const Function& function, int region, float t,
       state.evaluations++;
       auto range       = bound.range;
       local.end        = t + local.length;
-      local.empty      = !is_entire(range) && (range.hi < 0 || range.lo >= 0);
+      local.empty      = segment_one_side(range);
       local.derivative = bound.derivative;
       ahead            = local.length;
     }
@@ -377,7 +387,7 @@ inline void segment_isolate(const Function& function, int region,
     auto bound = function.bound(region, piece.a, piece.b);
     state.evaluations++;
     auto range = bound.range;
-    if (!is_entire(range) && (range.hi < 0 || range.lo >= 0)) {
+    if (segment_one_side(range)) {
       // One side over the whole piece: a change of side at its start if it
       // is the other one (a jump), else nothing in it.
       if ((range.hi < 0) != state.start_inside)
@@ -386,9 +396,9 @@ inline void segment_isolate(const Function& function, int region,
       state.have_last = false;
       continue;
     }
-    if (bound.slope < flt_inf) {
-      segment_lipschitz(function, region, bound.slope, piece.a, piece.b, params,
-          hit_min, state);
+    if (auto slope = segment_slope(bound.derivative); slope < flt_inf) {
+      segment_lipschitz(
+          function, region, slope, piece.a, piece.b, params, hit_min, state);
       continue;
     }
     auto length = piece.b - piece.a;
@@ -471,7 +481,7 @@ inline march_result segment_trace(const Function& function, float t0, float t1,
       break;
     auto end   = std::min(std::max(region.t_exit, float_up(t, 1)), t1);
     auto range = region.range;
-    if (!is_entire(range) && (range.hi < 0 || range.lo >= 0)) {
+    if (segment_one_side(range)) {
       if ((range.hi < 0) != state.start_inside) {
         segment_bracket(state, t);
       } else {

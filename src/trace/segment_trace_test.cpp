@@ -48,8 +48,7 @@ struct closed_form_ray {
     auto f = shape(x, y, z);
     auto s = f.d[0] * interval{ray.d.x} + f.d[1] * interval{ray.d.y} +
              f.d[2] * interval{ray.d.z};
-    auto slope = mag(s);
-    return {f.v, slope == slope ? slope : flt_inf, s};
+    return {f.v, s};
   }
   segment_region locate(float t) const {
     auto p     = ray_point(ray, t);
@@ -71,7 +70,7 @@ struct closed_form_ray {
       exit       = std::min(exit, (plane - at(ray.o, a)) / d);
     }
     auto bound = bound_box(b);
-    return {index, exit, bound.range, bound.slope};
+    return {index, exit, bound.range, segment_slope(bound.derivative)};
   }
   float value(int, float t) const {
     auto p = ray_point(ray, t);
