@@ -37,6 +37,10 @@ struct sdf_simplify_state {
   std::vector<int>                  pass   = {};  // the clause a clause becomes
   std::vector<int>                  index  = {};  // position in the output
   std::vector<char>                 state  = {};  // unreached, kept or folded
+  // Scratch of the octree's builds (sdf_field.cpp): a cell's clauses, and
+  // a leaf's in registers, before they are copied at their size.
+  std::vector<sdf_ssa>    output    = {};
+  std::vector<sdf_clause> registers = {};
 };
 
 // The SSA clauses `ssa` (over the nodes and maps of `pool`) restricted to
