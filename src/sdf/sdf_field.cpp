@@ -129,10 +129,11 @@ static sdf_clause* add_clauses(sdf_field_cells& cells, size_t count) {
 
 // What building a cell decided, before it is published. The clauses live
 // in scratch space that only grows, borrowed from the cells' pool for the
-// build: growing each cell's vectors clause by clause cost the
-// 10,000-cylinder slab 9% of its preview in reallocations.
+// build, instead of a vector per cell grown clause by clause (9% of a
+// 10,000-cylinder slab preview's profile in reallocations; 7% less peak
+// memory on the 10,000-sphere blend, time within noise).
 struct cell_build {
-  std::unique_ptr<sdf_simplify_state> state   = {};  // output: its clauses
+  std::unique_ptr<sdf_simplify_state> state   = {};       // output: its clauses
   std::vector<sdf_clause>*            clauses = nullptr;  // a leaf's, or none
   sdf_cell                            cell    = {};
   bool                                split   = false;
@@ -158,8 +159,8 @@ static cell_build simplify_cell(
   }
   auto& simplified = build.state->output;
   simplified.clear();
-  auto range =
-      simplify_sdf(field.full, *slot.clauses, slot.box, *build.state, simplified);
+  auto range = simplify_sdf(
+      field.full, *slot.clauses, slot.box, *build.state, simplified);
   auto  size = simplified.size();
   auto& cell = build.cell;
   cell.range = range;
