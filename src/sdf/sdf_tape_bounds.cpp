@@ -86,12 +86,6 @@ float eval_sdf_lipschitz(const sdf_tape& tape, const bbox3f& box) {
 // JUMPS
 // -----------------------------------------------------------------------------
 
-// The copy of a repeat that coordinate `x` falls in (repeat_axis's n).
-static float repeat_copy(float x, float size, int count) {
-  auto n = std::round(x / size);
-  return count >= 0 ? std::clamp(n, (float)-count, (float)count) : n;
-}
-
 // Where v, moving linearly from v0 to v1, first passes a value k + offset
 // (k an integer): the fraction in (0, 1), or NaN if it passes none.
 static float first_crossing(float v0, float v1, float offset) {

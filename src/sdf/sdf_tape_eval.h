@@ -82,15 +82,21 @@ inline sdf_vec3<C> warp_bend(const sdf_vec3<C>& p, float k) {
   return {math_sub(math_mul(c, p.x), math_mul(s, p.y)),
       math_add(math_mul(s, p.x), math_mul(c, p.y)), p.z};
 }
-// One axis of repeat: p - size * n, n = round(p / size), clamped to
-// [-count, count] when count >= 0; no repetition when size <= 0.
+// The copy of a repeat that p falls in: n = round(p / size), clamped to
+// [-count, count] when count >= 0 (size > 0).
 template <class C>
-inline C repeat_axis(const C& p, float size, int count) {
-  if (!(size > 0)) return p;
+inline C repeat_copy(const C& p, float size, int count) {
   auto n = math_round(math_div(p, lift<C>(size)));
   if (count >= 0)
     n = math_clamp(n, lift<C>((float)-count), lift<C>((float)count));
-  return math_sub(p, math_mul(lift<C>(size), n));
+  return n;
+}
+// One axis of repeat: p - size * n, n its copy; no repetition when
+// size <= 0.
+template <class C>
+inline C repeat_axis(const C& p, float size, int count) {
+  if (!(size > 0)) return p;
+  return math_sub(p, math_mul(lift<C>(size), repeat_copy(p, size, count)));
 }
 template <class C>
 inline sdf_vec3<C> warp_repeat(const sdf_vec3<C>& p, const sdf_node& node) {
@@ -374,9 +380,7 @@ inline sdf_box_point map_shape_point(
 // otherwise the cell [-size/2, size/2] and the clamped ends beyond it.
 inline interval repeat_interval(interval p, float size, int count) {
   if (!(size > 0) || is_entire(p)) return p;
-  auto n = math_round(math_div(p, interval{size}));
-  if (count >= 0)
-    n = math_clamp(n, interval{(float)-count}, interval{(float)count});
+  auto n = repeat_copy(p, size, count);
   if (is_single(n)) return math_sub(p, math_mul(interval{size}, n));
   auto half  = float_up(size * 0.5f, 1);
   auto reach = float_up(size * (float)std::max(count, 0), 1);

@@ -168,6 +168,21 @@ inline void segment_advance(segment_state& state, float t, float f) {
   state.have_last = true;
 }
 
+// Sample f at t: note a change of side (true) or advance to it (the
+// value is then state.last_f).
+template <typename Function>
+inline bool segment_sample(
+    const Function& function, int region, float t, segment_state& state) {
+  auto f = function.value(region, t);
+  state.evaluations++;
+  if (segment_inside(f) != state.start_inside) {
+    segment_bracket(state, t, f);
+    return true;
+  }
+  segment_advance(state, t, f);
+  return false;
+}
+
 // A segment of the ray ahead with its own bound of df/dt (Galin et al.'s
 // local Lipschitz bound of the segment, signed), kept for every step that
 // starts in it.
@@ -264,11 +279,8 @@ inline void segment_lipschitz(const Function& function, int region, float slope,
   if (state.have_last && state.last_t == a) {
     f = state.last_f;
   } else {
-    f = function.value(region, t);
-    state.evaluations++;
-    if (segment_inside(f) != state.start_inside)
-      return segment_bracket(state, t, f);
-    segment_advance(state, t, f);
+    if (segment_sample(function, region, t, state)) return;
+    f = state.last_f;
   }
   auto local = segment_local{};
   while (t < b) {
@@ -291,12 +303,9 @@ inline void segment_lipschitz(const Function& function, int region, float slope,
         decisive ? safe : std::max(safe, segment_epsilon(params, hit_min, t));
     auto next = std::min(t + step, b);
     if (next <= t) next = float_up(t, 1);
-    f = function.value(region, next);
-    state.evaluations++;
-    if (segment_inside(f) != state.start_inside)
-      return segment_bracket(state, next, f);
+    if (segment_sample(function, region, next, state)) return;
     t = next;
-    segment_advance(state, t, f);
+    f = state.last_f;
   }
 }
 
@@ -307,21 +316,6 @@ struct segment_piece {
   float a = 0, b = 0;
   bool  gap = false;
 };
-
-// Sample f at t, the end of a piece: note a change of side (true) or
-// advance to it.
-template <typename Function>
-inline bool segment_sample(
-    const Function& function, int region, float t, segment_state& state) {
-  auto f = function.value(region, t);
-  state.evaluations++;
-  if (segment_inside(f) != state.start_inside) {
-    segment_bracket(state, t, f);
-    return true;
-  }
-  segment_advance(state, t, f);
-  return false;
-}
 
 // Whether f is NaN at both ends of a piece (the start's value is known
 // when the march checked it last): such a piece of a region where the value
