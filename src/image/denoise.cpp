@@ -4,6 +4,8 @@
 // the weight w(p, q) of a method (NL-means times feature weights, or a t-test
 // times feature weights); the filters accumulate what they need from the
 // weights (a weighted mean, or the moments of a first-order regression).
+// One visit serves several runs (two window sizes, and for nlm two NL-means
+// strengths); per pixel, the run whose SURE error estimate is lowest wins.
 //
 // The engine runs over blocks of rows in parallel, offset by offset, and
 // computes every weight from fixed coordinates only: each pixel sums its
@@ -341,10 +343,11 @@ struct weight_guide {
 };
 
 // NL-means distance of one channel: the squared difference less its
-// expected variance, in units of k^2 (var_a + var_b) (Rousselle et al.
-// 2012; the min makes a pixel whose own variance is high less picky).
-inline float nlm_distance(float diff, float a, float b, float eps, float k2) {
-  return (diff * diff - (a + std::min(a, b))) / (eps + k2 * (a + b));
+// expected variance, in units of var_a + var_b (Rousselle et al. 2012; the
+// min makes a pixel whose own variance is high less picky). A run of
+// strength k divides it by k^2 (run_set).
+inline float nlm_distance(float diff, float a, float b, float eps) {
+  return (diff * diff - (a + std::min(a, b))) / (eps + (a + b));
 }
 
 // Welch's t statistic squared less the threshold squared: positive when the
@@ -384,11 +387,10 @@ void color_distances(const guide_data& guide, const weight_guide& source,
     }
     return;
   }
-  auto k2 = params.strength * params.strength;
   for (auto x = -patch; x < end; x++) {
-    auto d0 = nlm_distance(a0[x] - b0[x], va0[x] * s, vb0[x] * s, eps, k2);
-    auto d1 = nlm_distance(a1[x] - b1[x], va1[x] * s, vb1[x] * s, eps, k2);
-    auto d2 = nlm_distance(a2[x] - b2[x], va2[x] * s, vb2[x] * s, eps, k2);
+    auto d0 = nlm_distance(a0[x] - b0[x], va0[x] * s, vb0[x] * s, eps);
+    auto d1 = nlm_distance(a1[x] - b1[x], va1[x] * s, vb1[x] * s, eps);
+    auto d2 = nlm_distance(a2[x] - b2[x], va2[x] * s, vb2[x] * s, eps);
     out[x]  = (d0 + d1 + d2) * (1.0f / 3) * ma[x] * mb[x];
   }
 }
@@ -415,24 +417,65 @@ void add_feature_distances(const guide_data& guide, int y, int dx, int dy,
   }
 }
 
+// The runs that one pass over the weights serves: each window radius times
+// each NL-means strength, run (window w, strength s) at index
+// w * strengths + s. A neighbour at offset (dx, dy) counts in window w when
+// |dx| and |dy| are at most radii[w]. The weights of every run are functions
+// of the same distances, so extra runs cost their exponentials and sums only.
+struct run_set {
+  int   radii[2]  = {};
+  int   windows   = 1;
+  float inv_k2[2] = {1, 1};  // 1 / k^2 of each strength
+  int   strengths = 1;
+
+  int  count() const { return windows * strengths; }
+  int  radius() const { return std::max(radii[0], radii[windows - 1]); }
+  bool in_window(int run, int dx, int dy) const {
+    auto r = radii[run / strengths];
+    return std::abs(dx) <= r && std::abs(dy) <= r;
+  }
+};
+
+// The runs of the parameters: params.radius and params.select_radius, and
+// for NL-means weights params.strength, and params.low_strength for nlm (the
+// regression's runs cost 60 moments each: a second strength made nfor 0-9%
+// better at 1.8x its time, README).
+run_set make_run_set(const denoise_params& params) {
+  auto runs     = run_set{};
+  runs.radii[0] = params.radius;
+  if (params.select_radius != 0 && params.select_radius != params.radius)
+    runs.radii[runs.windows++] = params.select_radius;
+  if (params.method == denoise_method::ttest) return runs;
+  runs.inv_k2[0] = 1 / (params.strength * params.strength);
+  if (params.method == denoise_method::nlm && params.low_strength > 0 &&
+      params.low_strength != params.strength)
+    runs.inv_k2[runs.strengths++] =
+        1 / (params.low_strength * params.low_strength);
+  return runs;
+}
+
 // Calls visit(y, dx, dy, weights) for every row y of [y0, y1) and every
-// offset (dx, dy) of the window, in a fixed order; weights[x] is the weight
-// of pixel (x + dx, y + dy) for pixel (x, y), 0 outside the image and for
-// missing pixels. Patch distances are box sums of pixel distances, each a
-// direct sum (no running sums, whose rounding would depend on where a block
-// starts).
+// offset (dx, dy) of the widest window, in a fixed order; weights[s][x] is
+// the weight with strength s of pixel (x + dx, y + dy) for pixel (x, y), 0
+// outside the image and for missing pixels. Patch distances are box sums of
+// pixel distances, each a direct sum (no running sums, whose rounding would
+// depend on where a block starts).
 template <typename Visit>
 void visit_weights(const guide_data& guide, const weight_guide& source,
-    const denoise_params& params, int y0, int y1, Visit&& visit) {
-  auto width = guide.width, height = guide.height, radius = params.radius;
-  auto patch    = params.method == denoise_method::ttest
-                      ? 0
-                      : std::max(params.patch_radius, 0);
-  auto rows     = y1 - y0 + 2 * patch;
-  auto area     = 1.0f / (float)((2 * patch + 1) * (2 * patch + 1));
-  auto pixel    = std::vector<float>((size_t)width + 2 * patch);
-  auto row_sums = std::vector<float>((size_t)rows * width);
-  auto weights  = std::vector<float>(width);
+    const denoise_params& params, const run_set& runs, int y0, int y1,
+    Visit&& visit) {
+  auto   width = guide.width, height = guide.height, radius = runs.radius();
+  auto   patch      = params.method == denoise_method::ttest
+                          ? 0
+                          : std::max(params.patch_radius, 0);
+  auto   rows       = y1 - y0 + 2 * patch;
+  auto   area       = 1.0f / (float)((2 * patch + 1) * (2 * patch + 1));
+  auto   pixel      = std::vector<float>((size_t)width + 2 * patch);
+  auto   row_sums   = std::vector<float>((size_t)rows * width);
+  auto   colour     = std::vector<float>(width);
+  auto   features   = std::vector<float>(width);
+  auto   weights    = std::vector<float>((size_t)runs.strengths * width);
+  float* rows_of[2] = {weights.data(), weights.data() + width};
   for (auto dy = -radius; dy <= radius; dy++) {
     for (auto dx = -radius; dx <= radius; dx++) {
       for (auto row = 0; row < rows; row++) {
@@ -447,22 +490,26 @@ void visit_weights(const guide_data& guide, const weight_guide& source,
       auto x0 = std::max(0, -dx), x1 = std::min(width, width - dx);
       for (auto y = y0; y < y1; y++) {
         if (y + dy < 0 || y + dy >= height) continue;
-        std::fill(weights.begin(), weights.end(), 0.0f);
         auto sums = &row_sums[(size_t)(y - y0) * width];
-        for (auto x = x0; x < x1; x++) weights[x] = sums[x];
+        for (auto x = x0; x < x1; x++) colour[x] = sums[x];
         for (auto k = 1; k <= 2 * patch; k++)
-          for (auto x = x0; x < x1; x++) weights[x] += sums[k * width + x];
+          for (auto x = x0; x < x1; x++) colour[x] += sums[k * width + x];
         for (auto x = x0; x < x1; x++)
-          weights[x] = std::max(weights[x] * area, 0.0f);
-        add_feature_distances(guide, y, dx, dy, x0, x1, weights.data());
-        // Clamped in a loop of its own: a min beside the exponential stops
-        // GCC from vectorising.
-        for (auto x = x0; x < x1; x++)
-          weights[x] = std::min(weights[x], max_distance);
+          colour[x] = std::max(colour[x] * area, 0.0f);
+        std::fill(features.begin(), features.end(), 0.0f);
+        add_feature_distances(guide, y, dx, dy, x0, x1, features.data());
         auto valid = guide.valid_plane.row(y + dy) + dx;
-        for (auto x = x0; x < x1; x++)
-          weights[x] = exp_negative(weights[x]) * valid[x];
-        visit(y, dx, dy, weights.data());
+        std::fill(weights.begin(), weights.end(), 0.0f);
+        for (auto s = 0; s < runs.strengths; s++) {
+          auto w      = rows_of[s];
+          auto inv_k2 = runs.inv_k2[s];
+          // Clamped in a loop of its own: a min beside the exponential
+          // stops GCC from vectorising.
+          for (auto x = x0; x < x1; x++)
+            w[x] = std::min(colour[x] * inv_k2 + features[x], max_distance);
+          for (auto x = x0; x < x1; x++) w[x] = exp_negative(w[x]) * valid[x];
+        }
+        visit(y, dx, dy, (const float* const*)rows_of);
       }
     }
   }
@@ -480,39 +527,61 @@ struct filtered_image {
   std::vector<float> self  = {};
 };
 
-// Weighted mean of the neighbours of `values` with the weights of `source`:
-// the pixel's own value plus the mean of the differences, so a constant
-// image stays exactly constant.
-filtered_image filter_mean(const guide_data& guide,
+// Filtered images, one per run.
+using filtered_runs = std::vector<filtered_image>;
+
+filtered_runs make_filtered_runs(const run_set& runs, size_t pixels) {
+  return filtered_runs(runs.count(),
+      filtered_image{std::vector<vec3f>(pixels), std::vector<float>(pixels)});
+}
+
+// Weighted mean of the neighbours of `values` with the weights of `source`,
+// per run: the pixel's own value plus the mean of the differences, so a
+// constant image stays exactly constant.
+filtered_runs filter_mean(const guide_data& guide,
     const std::vector<vec3f>& values, const padded_color& planes,
-    const weight_guide& source, const denoise_params& params) {
+    const weight_guide& source, const denoise_params& params,
+    const run_set& runs) {
   auto width  = guide.width;
-  auto output = filtered_image{
-      std::vector<vec3f>(values.size()), std::vector<float>(values.size())};
+  auto output = make_filtered_runs(runs, values.size());
   auto blocks = (guide.height + block_rows - 1) / block_rows;
   tbb::parallel_for(0, blocks, [&](int block) {
     auto y0    = block * block_rows;
     auto y1    = std::min(y0 + block_rows, guide.height);
     auto count = (size_t)(y1 - y0) * width;
-    // Weight sum, then the weighted differences per channel.
-    auto sums = std::vector<float>(count * 4, 0.0f);
-    visit_weights(guide, source, params, y0, y1,
-        [&](int y, int dx, int dy, const float* w) {
-          auto sw = &sums[(size_t)(y - y0) * width];
-          for (auto x = 0; x < width; x++) sw[x] += w[x];
+    // Per run: the weight sum, then the weighted differences per channel.
+    auto sums  = std::vector<float>(count * 4 * runs.count(), 0.0f);
+    auto diffs = std::vector<float>((size_t)3 * width);
+    visit_weights(guide, source, params, runs, y0, y1,
+        [&](int y, int dx, int dy, const float* const* weights) {
           for (auto c = 0; c < 3; c++) {
-            auto s  = sw + (c + 1) * count;
             auto yp = planes[c].row(y), yq = planes[c].row(y + dy) + dx;
-            for (auto x = 0; x < width; x++) s[x] += w[x] * (yq[x] - yp[x]);
+            auto d = &diffs[(size_t)c * width];
+            for (auto x = 0; x < width; x++) d[x] = yq[x] - yp[x];
+          }
+          for (auto run = 0; run < runs.count(); run++) {
+            if (!runs.in_window(run, dx, dy)) continue;
+            auto w  = weights[run % runs.strengths];
+            auto sw = &sums[(size_t)run * 4 * count + (size_t)(y - y0) * width];
+            for (auto x = 0; x < width; x++) sw[x] += w[x];
+            for (auto c = 0; c < 3; c++) {
+              auto s = sw + (c + 1) * count;
+              auto d = &diffs[(size_t)c * width];
+              for (auto x = 0; x < width; x++) s[x] += w[x] * d[x];
+            }
           }
         });
-    for (size_t local = 0; local < count; local++) {
-      auto p          = (size_t)y0 * width + local;
-      auto w          = sums[local];
-      auto s          = vec3f{sums[count + local], sums[2 * count + local],
-          sums[3 * count + local]};
-      output.color[p] = w > 0 ? values[p] + s / w : values[p];
-      output.self[p]  = w > 0 ? 1 / w : 1;
+    for (auto run = 0; run < runs.count(); run++) {
+      auto  run_sums = &sums[(size_t)run * 4 * count];
+      auto& out      = output[run];
+      for (size_t local = 0; local < count; local++) {
+        auto p = (size_t)y0 * width + local;
+        auto w = run_sums[local];
+        auto s = vec3f{run_sums[count + local], run_sums[2 * count + local],
+            run_sums[3 * count + local]};
+        out.color[p] = w > 0 ? values[p] + s / w : values[p];
+        out.self[p]  = w > 0 ? 1 / w : 1;
+      }
     }
   });
   return output;
@@ -601,10 +670,11 @@ vec3f solve_regression(const regression_layout& layout, const float* m,
   return value;
 }
 
-// Add one row of neighbours at offset (dx, dy), weights w, to the moments.
-void add_regression_row(const guide_data& guide,
+// The differences of one row of neighbours at offset (dx, dy) to their
+// pixels: x (nf rows of scratch) then y (3 rows).
+void regression_differences(const guide_data& guide,
     const regression_layout& layout, const padded_color& planes, int y, int dx,
-    int dy, const float* w, float* moments, size_t stride, float* scratch) {
+    int dy, float* scratch) {
   auto width = guide.width, nf = layout.features;
   // x (nf rows of scratch) then y (3 rows).
   for (auto k = 0; k < nf; k++) {
@@ -617,6 +687,13 @@ void add_regression_row(const guide_data& guide,
     auto out = &scratch[(nf + c) * width];
     for (auto x = 0; x < width; x++) out[x] = yq[x] - yp[x];
   }
+}
+
+// Add one row of neighbours, their differences in `scratch`
+// (regression_differences) and weights w, to the moments.
+void add_regression_row(const regression_layout& layout, int width,
+    const float* scratch, const float* w, float* moments, size_t stride) {
+  auto nf  = layout.features;
   auto add = [&](int j, const float* u) {
     auto m = moments + j * stride;
     for (auto x = 0; x < width; x++) m[x] += w[x] * u[x];
@@ -642,68 +719,79 @@ void add_regression_row(const guide_data& guide,
 // window, weighted by `source` (NFOR, Bitterli et al. 2016): features that
 // vary with the image (shading normals, albedo, depth) explain the variation
 // instead of blurring it.
-filtered_image filter_regression(const guide_data& guide,
+filtered_runs filter_regression(const guide_data& guide,
     const std::vector<vec3f>& values, const padded_color& planes,
-    const weight_guide& source, const denoise_params& params) {
+    const weight_guide& source, const denoise_params& params,
+    const run_set& runs) {
   auto width  = guide.width;
   auto layout = make_regression_layout(guide.nfeatures);
-  auto output = filtered_image{
-      std::vector<vec3f>(values.size()), std::vector<float>(values.size())};
+  auto output = make_filtered_runs(runs, values.size());
   auto blocks = (guide.height + block_rows - 1) / block_rows;
   tbb::parallel_for(0, blocks, [&](int block) {
     auto y0      = block * block_rows;
     auto y1      = std::min(y0 + block_rows, guide.height);
     auto count   = (size_t)(y1 - y0) * width;
-    auto moments = std::vector<float>(count * layout.moments, 0.0f);
+    auto size    = count * layout.moments;  // floats per run
+    auto moments = std::vector<float>(size * runs.count(), 0.0f);
     auto scratch = std::vector<float>((size_t)(layout.features + 3) * width);
-    visit_weights(guide, source, params, y0, y1,
-        [&](int y, int dx, int dy, const float* w) {
-          add_regression_row(guide, layout, planes, y, dx, dy, w,
-              &moments[(size_t)(y - y0) * width], count, scratch.data());
+    visit_weights(guide, source, params, runs, y0, y1,
+        [&](int y, int dx, int dy, const float* const* weights) {
+          regression_differences(
+              guide, layout, planes, y, dx, dy, scratch.data());
+          for (auto run = 0; run < runs.count(); run++)
+            if (runs.in_window(run, dx, dy))
+              add_regression_row(layout, width, scratch.data(),
+                  weights[run % runs.strengths],
+                  &moments[run * size + (size_t)(y - y0) * width], count);
         });
-    for (size_t local = 0; local < count; local++) {
-      auto p          = (size_t)y0 * width + local;
-      output.color[p] = values[p] + solve_regression(layout, &moments[local],
-                                        count, params.ridge);
-      output.self[p]  = moments[local] > 0 ? 1 / moments[local] : 1;
+    for (auto run = 0; run < runs.count(); run++) {
+      auto m = &moments[run * size];
+      for (size_t local = 0; local < count; local++) {
+        auto p               = (size_t)y0 * width + local;
+        output[run].color[p] = values[p] + solve_regression(layout, &m[local],
+                                               count, params.ridge);
+        output[run].self[p]  = m[local] > 0 ? 1 / m[local] : 1;
+      }
     }
   });
   return output;
 }
 
 // The filter of a method.
-filtered_image filter_values(const guide_data& guide,
+filtered_runs filter_values(const guide_data& guide,
     const std::vector<vec3f>& values, const padded_color& planes,
-    const weight_guide& source, const denoise_params& params) {
+    const weight_guide& source, const denoise_params& params,
+    const run_set& runs) {
   switch (params.method) {
     case denoise_method::nfor:
-      return filter_regression(guide, values, planes, source, params);
+      return filter_regression(guide, values, planes, source, params, runs);
     case denoise_method::nlm:
     case denoise_method::ttest:
-      return filter_mean(guide, values, planes, source, params);
+      return filter_mean(guide, values, planes, source, params, runs);
   }
   return {};
 }
 
-// Run the method at the parameters' radius: cross filtering of the halves
-// when there are halves (each half filtered with the weights of the other,
-// so that no weight is correlated with the noise it averages), else the
-// colour with its own weights (always for the t-test, which compares the
-// pixels' own statistics).
-filtered_image run_filter(
-    const guide_data& guide, const denoise_params& params) {
+// Every run of the method: cross filtering of the halves when there are
+// halves (each half filtered with the weights of the other, so that no
+// weight is correlated with the noise it averages), else the colour with its
+// own weights (always for the t-test, which compares the pixels' own
+// statistics).
+filtered_runs run_filters(const guide_data& guide, const denoise_params& params,
+    const run_set& runs) {
   auto cross = !guide.half_a.empty() && params.method != denoise_method::ttest;
   if (!cross)
     return filter_values(guide, guide.color, guide.color_planes,
-        {&guide.color_planes, 1}, params);
+        {&guide.color_planes, 1}, params, runs);
   auto a = filter_values(guide, guide.half_a, guide.half_a_planes,
-      {&guide.half_b_planes, 2}, params);
+      {&guide.half_b_planes, 2}, params, runs);
   auto b = filter_values(guide, guide.half_b, guide.half_b_planes,
-      {&guide.half_a_planes, 2}, params);
-  for (size_t i = 0; i < a.color.size(); i++) {
-    a.color[i] = (a.color[i] + b.color[i]) * 0.5f;
-    a.self[i]  = (a.self[i] + b.self[i]) * 0.5f;
-  }
+      {&guide.half_a_planes, 2}, params, runs);
+  for (size_t run = 0; run < a.size(); run++)
+    for (size_t i = 0; i < a[run].color.size(); i++) {
+      a[run].color[i] = (a[run].color[i] + b[run].color[i]) * 0.5f;
+      a[run].self[i]  = (a[run].self[i] + b[run].self[i]) * 0.5f;
+    }
   return a;
 }
 
@@ -737,17 +825,23 @@ std::vector<float> smoothed_sure(
   return smooth;
 }
 
-// Per pixel, the candidate whose smoothed SURE is lower (Rousselle et al.,
-// "Adaptive Rendering with Non-Local Means Filtering", 2012): the wide
-// window where it averages away noise, the narrow one where the wide one
-// blurs (edges, curved shading).
-std::vector<vec3f> select_by_sure(const guide_data& guide,
-    const filtered_image& wide, const filtered_image& narrow) {
-  auto wide_sure   = smoothed_sure(guide, wide, sure_radius);
-  auto narrow_sure = smoothed_sure(guide, narrow, sure_radius);
-  auto output      = wide.color;
-  for (size_t i = 0; i < output.size(); i++)
-    if (narrow_sure[i] < wide_sure[i]) output[i] = narrow.color[i];
+// Per pixel, the run whose smoothed SURE is lowest (Rousselle et al.,
+// "Adaptive Rendering with Non-Local Means Filtering", 2012), the first of
+// equal ones: a wide window where it averages away noise, a narrow one where
+// the wide one blurs (edges, curved shading), a low strength where colours
+// that differ within the noise still differ (glossy highlights).
+std::vector<vec3f> select_by_sure(
+    const guide_data& guide, const filtered_runs& runs) {
+  auto sures = std::vector<std::vector<float>>{};
+  for (auto& run : runs)
+    sures.push_back(smoothed_sure(guide, run, sure_radius));
+  auto output = runs[0].color;
+  for (size_t i = 0; i < output.size(); i++) {
+    auto best = (size_t)0;
+    for (size_t run = 1; run < runs.size(); run++)
+      if (sures[run][i] < sures[best][i]) best = run;
+    output[i] = runs[best].color[i];
+  }
   return output;
 }
 
@@ -757,23 +851,22 @@ std::vector<vec3f> select_by_sure(const guide_data& guide,
 // DENOISING
 // -----------------------------------------------------------------------------
 
-// The method at params.radius, and at params.select_radius with a
-// per-pixel choice between the two.
+// Every run of the method (run_set), and per pixel the best.
 std::vector<vec3f> denoise_image(
     const denoise_buffers& buffers, const denoise_params& params) {
   check_buffers(buffers);
   if (buffers.width == 0 || buffers.height == 0) return {};
   if (params.radius < 0 || params.patch_radius < 0 || params.select_radius < 0)
     throw std::invalid_argument("denoise_image: negative radius");
-  auto guide =
-      make_guide(buffers, params, std::max(params.radius, params.select_radius),
-          std::max(params.patch_radius, 0));
-  auto wide = run_filter(guide, params);
-  if (params.select_radius == 0 || params.select_radius == params.radius)
-    return wide.color;
-  auto narrow_params   = params;
-  narrow_params.radius = params.select_radius;
-  return select_by_sure(guide, wide, run_filter(guide, narrow_params));
+  if (!(params.strength > 0) || !(params.low_strength >= 0))
+    throw std::invalid_argument(
+        "denoise_image: strength must be positive, low_strength at least 0");
+  auto runs  = make_run_set(params);
+  auto guide = make_guide(
+      buffers, params, runs.radius(), std::max(params.patch_radius, 0));
+  auto filtered = run_filters(guide, params, runs);
+  if (filtered.size() == 1) return filtered[0].color;
+  return select_by_sure(guide, filtered);
 }
 
 // Parse a method name.

@@ -63,6 +63,9 @@ struct denoise_params {
   // NL-means strength k: colour distances are in units of k^2 times the
   // variance of the difference (Rousselle et al. 2012).
   float strength = 1.0f;
+  // A second, pickier strength for nlm (0: none): each window also runs
+  // with it, and the per-pixel choice below picks among all runs.
+  float low_strength = 0.5f;
   // Welch t-test: |mean_p - mean_q| <= threshold sqrt(var_p + var_q).
   float ttest_threshold = 2.0f;
   // Feature distances: a neighbour whose albedo differs by albedo_sigma
@@ -74,7 +77,7 @@ struct denoise_params {
   // Regression (nfor): ridge on the slopes, relative to the weight sum.
   float ridge = 0.01f;
   // A second run with a window of this radius, and per pixel the run whose
-  // error estimate (SURE) is lower; 0 or radius: one run.
+  // error estimate (SURE) is lowest; 0 or radius: one window.
   int select_radius = 2;
 };
 
