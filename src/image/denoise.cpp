@@ -530,6 +530,7 @@ struct filtered_image {
 // Filtered images, one per run.
 using filtered_runs = std::vector<filtered_image>;
 
+// One zeroed filtered image per run.
 filtered_runs make_filtered_runs(const run_set& runs, size_t pixels) {
   return filtered_runs(runs.count(),
       filtered_image{std::vector<vec3f>(pixels), std::vector<float>(pixels)});
