@@ -151,15 +151,22 @@ void make_colors(const denoise_buffers& buffers, guide_data& guide) {
   }
 }
 
-// Variance of the mean per pixel: the buffer, else the halves' squared
-// difference / 4, else one global estimate from neighbouring differences;
-// then a 3x3 mean over valid pixels (a single pixel's estimate is noisy).
+// Variance of the mean per pixel: the buffer as it is, else the halves'
+// squared difference / 4 (one degree of freedom: then a 3x3 mean over valid
+// pixels), else one global estimate from neighbouring differences. The
+// buffer's sample variance is not smoothed: a 3x3 mean spreads the large
+// variance of edge and highlight pixels to their neighbours, whose NL-means
+// distances then let them average across the edge (64 spp, README: relMSE
+// 3-23% lower on three scenes, within 1% on the fourth).
 void make_variance(const denoise_buffers& buffers, guide_data& guide) {
   auto width = guide.width, height = guide.height;
   auto raw = std::vector<vec3f>(guide.color.size());
   if (!buffers.variance.empty()) {
+    guide.variance = std::vector<vec3f>(raw.size());
     for (size_t i = 0; i < raw.size(); i++)
-      raw[i] = guide.valid[i] ? max(buffers.variance[i], 0.0f) : vec3f{};
+      guide.variance[i] =
+          guide.valid[i] ? max(buffers.variance[i], 0.0f) : vec3f{};
+    return;
   } else if (!guide.half_a.empty()) {
     for (size_t i = 0; i < raw.size(); i++) {
       auto d = guide.half_a[i] - guide.half_b[i];
