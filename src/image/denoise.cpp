@@ -684,7 +684,6 @@ void regression_differences(const guide_data& guide,
     const regression_layout& layout, const padded_color& planes, int y, int dx,
     int dy, float* scratch) {
   auto width = guide.width, nf = layout.features;
-  // x (nf rows of scratch) then y (3 rows).
   for (auto k = 0; k < nf; k++) {
     auto fp = guide.feature_planes[k].row(y);
     auto fq = guide.feature_planes[k].row(y + dy) + dx;
