@@ -70,6 +70,38 @@ static synthetic_render make_synthetic(
   return render;
 }
 
+// A render of constant features (normal +z, depth 5, albedo 0.5 unless
+// `pixel` sets it) whose pixel (x, y) has the truth and the variance of a
+// half's mean that pixel(x, y, truth, albedo, half_variance) sets; each half
+// adds Gaussian noise of that variance, drawn from `seed`.
+template <typename Pixel>
+static synthetic_render make_custom(
+    int width, int height, uint64_t seed, Pixel&& pixel) {
+  auto  render  = make_synthetic(width, height, 0.5f, 16, seed);
+  auto& buffers = render.buffers;
+  auto  rng     = make_rng(seed);
+  for (auto y = 0; y < height; y++)
+    for (auto x = 0; x < width; x++) {
+      auto i        = (size_t)y * width + x;
+      auto truth    = vec3f{0, 0, 0};
+      auto albedo   = vec3f{0.5f, 0.5f, 0.5f};
+      auto half_var = 0.0f;
+      pixel(x, y, truth, albedo, half_var);
+      render.truth[i]   = truth;
+      buffers.albedo[i] = albedo;
+      buffers.normal[i] = {0, 0, 1};
+      buffers.depth[i]  = 5;
+      for (auto* half : {&buffers.color_a, &buffers.color_b}) {
+        auto noise =
+            vec3f{rand_normal(rng), rand_normal(rng), rand_normal(rng)};
+        (*half)[i] = truth + noise * std::sqrt(half_var);
+      }
+      buffers.color[i]    = (buffers.color_a[i] + buffers.color_b[i]) * 0.5f;
+      buffers.variance[i] = vec3f{1, 1, 1} * (half_var / 2);
+    }
+  return render;
+}
+
 // Relative MSE: mean over pixels and channels of (x - t)^2 / (t^2 + 0.01).
 static double rel_mse(
     const std::vector<vec3f>& image, const std::vector<vec3f>& truth) {
@@ -110,25 +142,15 @@ TEST_CASE("denoise lowers the relative MSE of a noisy render") {
 TEST_CASE("denoise keeps a sharp albedo edge sharp") {
   // Left half albedo 0.2, right half 0.8, smooth shading: the step between
   // the two columns at the edge keeps 90% of its true height on average.
-  auto  render  = make_synthetic(64, 48, 0.5f, 16, 11);
+  auto edge   = 32;
+  auto render = make_custom(
+      64, 48, 3, [&](int x, int y, vec3f& truth, vec3f& albedo, float& var) {
+        albedo = vec3f{1, 1, 1} * (x < edge ? 0.2f : 0.8f);
+        truth  = albedo * (0.6f + 0.3f * std::sin(y * 0.1f));
+        var    = 0.25f / 8;
+      });
   auto& buffers = render.buffers;
-  auto  width = buffers.width, edge = width / 2;
-  auto  rng = make_rng(3);
-  for (auto y = 0; y < buffers.height; y++)
-    for (auto x = 0; x < width; x++) {
-      auto i            = (size_t)y * width + x;
-      auto albedo       = vec3f{1, 1, 1} * (x < edge ? 0.2f : 0.8f);
-      auto shade        = 0.6f + 0.3f * std::sin(y * 0.1f);
-      render.truth[i]   = albedo * shade;
-      buffers.albedo[i] = albedo;
-      buffers.normal[i] = {0, 0, 1};
-      for (auto* half : {&buffers.color_a, &buffers.color_b}) {
-        auto noise =
-            vec3f{rand_normal(rng), rand_normal(rng), rand_normal(rng)};
-        (*half)[i] = render.truth[i] + noise * std::sqrt(0.25f / 8);
-      }
-      buffers.color[i] = (buffers.color_a[i] + buffers.color_b[i]) * 0.5f;
-    }
+  auto  width   = buffers.width;
   for (auto method : all_methods) {
     auto params   = denoise_params{};
     params.method = method;
@@ -153,27 +175,15 @@ TEST_CASE("denoise: a low strength keeps highlights the features miss") {
   // NL-means at k = 1 averages bumps and valleys whose patches differ by
   // less than the noise allows; the runs at the low strength keep them where
   // SURE says they are better.
-  auto  render  = make_synthetic(96, 72, 0.5f, 16, 13);
-  auto& buffers = render.buffers;
-  auto  rng     = make_rng(5);
-  for (auto y = 0; y < buffers.height; y++)
-    for (auto x = 0; x < buffers.width; x++) {
-      auto i          = (size_t)y * buffers.width + x;
-      auto bump       = std::max(std::sin(x * 0.6f) * std::sin(y * 0.6f), 0.0f);
-      render.truth[i] = vec3f{1, 1, 1} * (0.4f + 0.5f * bump * bump);
-      buffers.albedo[i] = {0.5f, 0.5f, 0.5f};
-      buffers.normal[i] = {0, 0, 1};
-      buffers.depth[i]  = 5;
-      for (auto* half : {&buffers.color_a, &buffers.color_b}) {
-        auto noise =
-            vec3f{rand_normal(rng), rand_normal(rng), rand_normal(rng)};
-        (*half)[i] = render.truth[i] + noise * std::sqrt(0.02f);
-      }
-      buffers.color[i]    = (buffers.color_a[i] + buffers.color_b[i]) * 0.5f;
-      buffers.variance[i] = vec3f{1, 1, 1} * 0.01f;
-    }
-  auto params         = denoise_params{};
-  auto both           = rel_mse(denoise_image(buffers, params), render.truth);
+  auto render = make_custom(
+      96, 72, 5, [](int x, int y, vec3f& truth, vec3f&, float& var) {
+        auto bump = std::max(std::sin(x * 0.6f) * std::sin(y * 0.6f), 0.0f);
+        truth     = vec3f{1, 1, 1} * (0.4f + 0.5f * bump * bump);
+        var       = 0.02f;
+      });
+  auto& buffers       = render.buffers;
+  auto  params        = denoise_params{};
+  auto  both          = rel_mse(denoise_image(buffers, params), render.truth);
   params.low_strength = 0;
   auto one            = rel_mse(denoise_image(buffers, params), render.truth);
   auto raw            = rel_mse(buffers.color, render.truth);
@@ -190,27 +200,14 @@ TEST_CASE("denoise: a noisy column does not lend its variance") {
   // pixel's NL-means distances are in units of its own variance, which a
   // 3x3 mean of the variance made the noisy column's (then each quiet side
   // took in the other side).
-  auto  render  = make_synthetic(64, 48, 0.5f, 16, 17);
+  auto edge = 32;
+  auto render =
+      make_custom(64, 48, 9, [&](int x, int, vec3f& truth, vec3f&, float& var) {
+        truth = vec3f{1, 1, 1} * (x < edge ? 0.3f : x > edge ? 0.6f : 0.45f);
+        var   = x == edge ? 0.3f : 0.0002f;
+      });
   auto& buffers = render.buffers;
-  auto  width = buffers.width, edge = width / 2;
-  auto  rng = make_rng(9);
-  for (auto y = 0; y < buffers.height; y++)
-    for (auto x = 0; x < width; x++) {
-      auto i            = (size_t)y * width + x;
-      auto value        = x < edge ? 0.3f : x > edge ? 0.6f : 0.45f;
-      auto sigma2       = x == edge ? 0.3f : 0.0002f;  // of a half's mean
-      render.truth[i]   = vec3f{1, 1, 1} * value;
-      buffers.albedo[i] = {0.5f, 0.5f, 0.5f};
-      buffers.normal[i] = {0, 0, 1};
-      buffers.depth[i]  = 5;
-      for (auto* half : {&buffers.color_a, &buffers.color_b}) {
-        auto noise =
-            vec3f{rand_normal(rng), rand_normal(rng), rand_normal(rng)};
-        (*half)[i] = render.truth[i] + noise * std::sqrt(sigma2);
-      }
-      buffers.color[i]    = (buffers.color_a[i] + buffers.color_b[i]) * 0.5f;
-      buffers.variance[i] = vec3f{1, 1, 1} * (sigma2 / 2);
-    }
+  auto  width   = buffers.width;
   for (auto method : all_methods) {
     auto params   = denoise_params{};
     params.method = method;
