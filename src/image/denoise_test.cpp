@@ -125,12 +125,18 @@ static double image_mean(const std::vector<vec3f>& image) {
 static const denoise_method all_methods[] = {
     denoise_method::nfor, denoise_method::nlm, denoise_method::ttest};
 
+// The default parameters of a method.
+static denoise_params method_params(denoise_method method) {
+  auto params   = denoise_params{};
+  params.method = method;
+  return params;
+}
+
 TEST_CASE("denoise lowers the relative MSE of a noisy render") {
   auto render = make_synthetic(96, 72, 0.5f, 16, 7);
   auto noisy  = rel_mse(render.buffers.color, render.truth);
   for (auto method : all_methods) {
-    auto params   = denoise_params{};
-    params.method = method;
+    auto params = method_params(method);
     auto denoised =
         rel_mse(denoise_image(render.buffers, params), render.truth);
     INFO(denoise_method_names[(int)method], " noisy ", noisy, " denoised ",
@@ -152,8 +158,7 @@ TEST_CASE("denoise keeps a sharp albedo edge sharp") {
   auto& buffers = render.buffers;
   auto  width   = buffers.width;
   for (auto method : all_methods) {
-    auto params   = denoise_params{};
-    params.method = method;
+    auto params   = method_params(method);
     auto denoised = denoise_image(buffers, params);
     auto step = 0.0, truth = 0.0, noisy = 0.0;
     for (auto y = 0; y < buffers.height; y++) {
@@ -209,8 +214,7 @@ TEST_CASE("denoise: a noisy column does not lend its variance") {
   auto& buffers = render.buffers;
   auto  width   = buffers.width;
   for (auto method : all_methods) {
-    auto params   = denoise_params{};
-    params.method = method;
+    auto params   = method_params(method);
     auto denoised = denoise_image(buffers, params);
     auto error    = 0.0;  // mean |error| of the columns beside the step
     for (auto y = 0; y < buffers.height; y++)
@@ -233,8 +237,7 @@ TEST_CASE("denoise keeps the mean within the noise") {
   auto noisy  = image_mean(render.buffers.color);
   CHECK(std::abs(noisy - truth) < 4 * noise);
   for (auto method : all_methods) {
-    auto params   = denoise_params{};
-    params.method = method;
+    auto params   = method_params(method);
     auto denoised = image_mean(denoise_image(render.buffers, params));
     INFO(denoise_method_names[(int)method], " truth ", truth, " noisy ", noisy,
         " denoised ", denoised, " noise ", noise);
@@ -258,8 +261,7 @@ TEST_CASE("denoise keeps a constant image constant") {
     buffers.depth.push_back(1 + (float)(i % 11));
   }
   for (auto method : all_methods) {
-    auto params   = denoise_params{};
-    params.method = method;
+    auto params   = method_params(method);
     auto denoised = denoise_image(buffers, params);
     REQUIRE(denoised.size() == count);
     auto exact = true;
@@ -284,8 +286,7 @@ TEST_CASE("denoise does not spread NaN or inf") {
   broken.albedo[bad + 2]   = {nan, nan, nan};
   broken.depth[bad + 3]    = nan;
   for (auto method : all_methods) {
-    auto params   = denoise_params{};
-    params.method = method;
+    auto params   = method_params(method);
     auto clean    = denoise_image(render.buffers, params);
     auto denoised = denoise_image(broken, params);
     auto finite   = true;
@@ -313,8 +314,7 @@ TEST_CASE("denoise works without optional buffers") {
   auto no_features   = full;
   no_features.albedo = {}, no_features.normal = {}, no_features.depth = {};
   for (auto method : all_methods) {
-    auto params   = denoise_params{};
-    params.method = method;
+    auto params = method_params(method);
     for (auto& buffers : {color_only, halves_only, no_features}) {
       auto denoised = rel_mse(denoise_image(buffers, params), render.truth);
       INFO(denoise_method_names[(int)method], " noisy ", noisy, " denoised ",
@@ -327,8 +327,7 @@ TEST_CASE("denoise works without optional buffers") {
 TEST_CASE("denoise gives the same bytes at 1 and 2 threads") {
   auto render = make_synthetic(50, 37, 0.5f, 16, 17);
   for (auto method : all_methods) {
-    auto params   = denoise_params{};
-    params.method = method;
+    auto params = method_params(method);
     auto one = std::vector<vec3f>{}, two = std::vector<vec3f>{};
     {
       auto control =
