@@ -345,7 +345,7 @@ TEST_CASE("denoise gives the same bytes at 1 and 2 threads") {
   }
 }
 
-TEST_CASE("denoise rejects buffers of the wrong size") {
+TEST_CASE("denoise rejects buffers of the wrong size and bad strengths") {
   auto buffers  = denoise_buffers{};
   buffers.width = 4, buffers.height = 3;
   CHECK_THROWS_AS(denoise_image(buffers), std::invalid_argument);
@@ -356,6 +356,13 @@ TEST_CASE("denoise rejects buffers of the wrong size") {
   buffers.albedo = {};
   buffers.color_a.resize(12);
   CHECK_THROWS_AS(denoise_image(buffers), std::invalid_argument);
+  buffers.color_a = {};
+  auto params     = denoise_params{};
+  params.strength = 0;  // would divide the distances by 0
+  CHECK_THROWS_AS(denoise_image(buffers, params), std::invalid_argument);
+  params.strength     = 1;
+  params.low_strength = -1;
+  CHECK_THROWS_AS(denoise_image(buffers, params), std::invalid_argument);
   CHECK(parse_denoise_method("nlm") == denoise_method::nlm);
   CHECK_THROWS_AS(parse_denoise_method("oidn"), std::invalid_argument);
 }
