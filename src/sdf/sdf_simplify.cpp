@@ -296,6 +296,7 @@ void propagate_caps(
         walk.keep(c.a);
         break;
         IMPLICIT_SDF_MATH_OP_CASES
+        IMPLICIT_SDF_IMMEDIATE_CASES
         if (c.op == sdf_op::math_min) {
           walk.min_rule(c.a, c.b);
         } else if (c.op == sdf_op::math_max) {

@@ -41,6 +41,7 @@ int sdf_op_inputs(sdf_op op) {
     case sdf_op::math_x:
     case sdf_op::math_y:
     case sdf_op::math_z:
+      IMPLICIT_SDF_IMMEDIATE_CASES
       return 1;
       // clang-format off
 #define IMPLICIT_SDF_OP_INPUTS_0(id)
@@ -454,12 +455,33 @@ struct register_file {
   void give(int reg) { stack[freed++] = (uint8_t)reg; }
 };
 
+// The immediate form of a binary math clause (sdf_tape.h) whose second
+// operand is a constant, its operands swapped first where that is exact
+// (a sum or product of floats does not depend on their order; min and max
+// may, on ties of -0 and +0); else the clause as it is.
+sdf_ssa with_immediate(const std::vector<sdf_ssa>& ssa, sdf_ssa c) {
+  auto immediate = c.op;
+  switch (c.op) {
+#define IMPLICIT_SDF_IMMEDIATE_OP(id) \
+  case sdf_op::id: immediate = sdf_op::id##_k; break;
+    IMPLICIT_SDF_IMMEDIATE_OPS(IMPLICIT_SDF_IMMEDIATE_OP)
+#undef IMPLICIT_SDF_IMMEDIATE_OP
+    default: return c;
+  }
+  auto constant = [&](int k) { return ssa[k].op == sdf_op::math_const; };
+  auto commutes = c.op == sdf_op::math_add || c.op == sdf_op::math_mul;
+  if (commutes && constant(c.a) && !constant(c.b)) std::swap(c.a, c.b);
+  if (!constant(c.b)) return c;
+  return {immediate, c.a, invalidid, ssa[c.b].param};
+}
+
 }  // namespace
 
 // Reverse linear scan (fidget's compiler/alloc.rs): walking from the root
 // back, a value is given a register where it is last read and gives it back
 // where it is written, so a register is reused as soon as its value is dead.
 // A clause may write the register it reads (its inputs are read first).
+// A constant read only as an immediate operand (with_immediate) is dead.
 bool allocate_sdf_registers(
     const std::vector<sdf_ssa>& ssa, std::vector<sdf_clause>& clauses) {
   auto n = (int)ssa.size();
@@ -475,8 +497,8 @@ bool allocate_sdf_registers(
   };
   if (!file(n - 1).take(reg[n - 1])) return false;
   for (auto i = n - 1; i >= 0; i--) {
-    auto& c = ssa[i];
     if (reg[i] < 0) continue;  // dead: nothing reads it
+    auto c = with_immediate(ssa, ssa[i]);
     file(i).give(reg[i]);
     auto clause  = sdf_clause{};
     clause.op    = c.op;

@@ -59,9 +59,17 @@ namespace implicit {
 //                                  accumulator, each add puts an operand
 //                                  (b) into it (a), close folds it (blend)
 //   math_const (value)             the float's bits (sdf_param_float)
+//   math_add_k .. math_max_k       the constant operand's bits (b)
 // clang-format off
 #define IMPLICIT_SDF_OP_ENUM(id) id,
 #define IMPLICIT_SDF_OP_MATH_ENUM(id, name, operands) id,
+#define IMPLICIT_SDF_OP_IMMEDIATE_ENUM(id) id##_k,
+// Register-tape forms of binary math clauses whose second operand is a
+// constant (`math_add_k`: a + the parameter's float), as fidget's
+// AddRegImm: the tape spends neither a clause nor a register on the
+// constant. Only allocate_sdf_registers writes them; SSA never holds them.
+#define IMPLICIT_SDF_IMMEDIATE_OPS(X) \
+  X(math_add) X(math_sub) X(math_mul) X(math_div) X(math_min) X(math_max)
 #define IMPLICIT_SDF_POINT_OPS(X) \
   X(input) X(map) X(twist) X(bend) X(repeat) X(elongate) X(mirror)
 #define IMPLICIT_SDF_DISTANCE_OPS(X)                                         \
@@ -72,7 +80,9 @@ enum class sdf_op : uint8_t {
   IMPLICIT_SDF_POINT_OPS(IMPLICIT_SDF_OP_ENUM)
   IMPLICIT_SDF_DISTANCE_OPS(IMPLICIT_SDF_OP_ENUM)
   IMPLICIT_SDF_MATH(IMPLICIT_SDF_OP_MATH_ENUM)
+  IMPLICIT_SDF_IMMEDIATE_OPS(IMPLICIT_SDF_OP_IMMEDIATE_ENUM)
 };
+#undef IMPLICIT_SDF_OP_IMMEDIATE_ENUM
 #undef IMPLICIT_SDF_OP_MATH_ENUM
 #undef IMPLICIT_SDF_OP_ENUM
 // clang-format on
@@ -85,6 +95,9 @@ enum class sdf_op : uint8_t {
 #define IMPLICIT_SDF_DISTANCE_CASES \
   IMPLICIT_SDF_DISTANCE_OPS(IMPLICIT_SDF_OP_CASE)
 #define IMPLICIT_SDF_MATH_OP_CASES IMPLICIT_SDF_MATH(IMPLICIT_SDF_OP_MATH_CASE)
+#define IMPLICIT_SDF_OP_IMMEDIATE_CASE(id) case sdf_op::id##_k:
+#define IMPLICIT_SDF_IMMEDIATE_CASES \
+  IMPLICIT_SDF_IMMEDIATE_OPS(IMPLICIT_SDF_OP_IMMEDIATE_CASE)
 
 // Whether a clause writes a point (else a scalar or a group).
 inline bool is_point_op(sdf_op op) { return op <= sdf_op::mirror; }

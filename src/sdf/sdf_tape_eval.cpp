@@ -73,6 +73,7 @@ float eval_sdf_math(sdf_op op, float a, float b) {
       return a;
       IMPLICIT_SDF_POINT_CASES
       IMPLICIT_SDF_DISTANCE_CASES
+      IMPLICIT_SDF_IMMEDIATE_CASES
     case sdf_op::math_x:
     case sdf_op::math_y:
     case sdf_op::math_z: break;

@@ -958,6 +958,12 @@ inline void run_sdf_clauses(const sdf_tape& pool, const Clause* begin,
 #define IMPLICIT_SDF_RUN_MATH(id, name, operands) \
   IMPLICIT_SDF_RUN_MATH_##operands(id)
         IMPLICIT_SDF_MATH(IMPLICIT_SDF_RUN_MATH)
+#define IMPLICIT_SDF_RUN_IMMEDIATE(id)                       \
+  case sdf_op::id##_k:                                       \
+    values[out] = id(values[c->a], sdf_constant(k, values)); \
+    break;
+        IMPLICIT_SDF_IMMEDIATE_OPS(IMPLICIT_SDF_RUN_IMMEDIATE)
+#undef IMPLICIT_SDF_RUN_IMMEDIATE
 #undef IMPLICIT_SDF_RUN_MATH
 #undef IMPLICIT_SDF_RUN_MATH_2
 #undef IMPLICIT_SDF_RUN_MATH_1

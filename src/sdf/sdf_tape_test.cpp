@@ -362,6 +362,54 @@ TEST_CASE("sdf tape: batches equal single points") {
   }
 }
 
+TEST_CASE("sdf tape: constant operands become immediates") {
+  // (x - 0.5) / 0.25 + 2 * y: each constant is its clause's parameter.
+  auto program = sdf_program{};
+  auto x       = add_node(program, make_math(sdf_type::math_x));
+  auto y       = add_node(program, make_math(sdf_type::math_y));
+  auto u       = add_node(
+            program, make_math(sdf_type::math_sub, x, add_const(program, 0.5f)));
+  auto v = add_node(
+      program, make_math(sdf_type::math_div, u, add_const(program, 0.25f)));
+  auto w = add_node(program,
+      make_math(sdf_type::math_mul, add_const(program, 2), y));  // swapped
+  add_node(program, make_math(sdf_type::math_add, v, w));
+  auto tape  = make_sdf_tape(program);
+  auto count = [](const sdf_tape& t, sdf_op op) {
+    return std::count_if(t.clauses.begin(), t.clauses.end(),
+        [&](const sdf_clause& c) { return c.op == op; });
+  };
+  CHECK(count(tape, sdf_op::math_const) == 0);
+  CHECK(tape.clauses.size() == tape.ssa.size() - 3);
+  CHECK(count(tape, sdf_op::math_mul_k) == 1);
+  auto rng = make_rng(7);
+  for (auto i = 0; i < 100; i++) {
+    auto p = vec3f{uniform(rng, -2, 2), uniform(rng, -2, 2), 0};
+    CHECK(eval_sdf(tape, p) == (p.x - 0.5f) / 0.25f + 2.0f * p.y);
+    auto g = gradient(eval_sdf_dual(tape, p));
+    CHECK(g.x == 4);
+    CHECK(g.y == 2);
+    auto box = bbox3f{p - vec3f{0.1f, 0.1f, 0.1f}, p + vec3f{0.1f, 0.1f, 0.1f}};
+    auto range = eval_sdf_interval(tape, box);
+    CHECK(range.lo <= eval_sdf(tape, p));
+    CHECK(range.hi >= eval_sdf(tape, p));
+    CHECK(range.hi - range.lo == doctest::Approx(0.2f * 4 + 0.2f * 2));
+  }
+  // 2 - x keeps its constant (a difference is no sum), and so does a
+  // constant that a clause without an immediate form also reads.
+  auto kept = sdf_program{};
+  auto kx   = add_node(kept, make_math(sdf_type::math_x));
+  auto two  = add_const(kept, 2);
+  auto d    = add_node(kept, make_math(sdf_type::math_sub, two, kx));
+  auto m    = add_node(kept, make_math(sdf_type::math_mod, kx, two));
+  auto l    = add_node(kept, make_math(sdf_type::math_min, m, two));
+  add_node(kept, make_math(sdf_type::math_add, d, l));
+  auto kept_tape = make_sdf_tape(kept);
+  CHECK(count(kept_tape, sdf_op::math_const) == 1);
+  CHECK(count(kept_tape, sdf_op::math_min_k) == 1);
+  CHECK(eval_sdf(kept_tape, {3.5f, 0, 0}) == (2 - 3.5f) + 1.5f);
+}
+
 TEST_CASE("sdf tape: register files") {
   // 65,536 spheres in a balanced union: a few registers.
   auto program = sdf_program{};
