@@ -190,12 +190,15 @@ static cell_build simplify_cell(
   build.clauses->clear();
   allocate_sdf_registers(simplified, *build.clauses);
   cell.count = (int)build.clauses->size();
-  // A distance program keeps its global bound; others get the bound of
-  // their cell's gradient (interval derivatives of the cell's tape).
-  cell.lipschitz = field.distance
-                       ? field.full.lipschitz
-                       : eval_sdf_lipschitz(field.full, build.clauses->data(),
-                             build.clauses->data() + cell.count, slot.box);
+  // A distance program keeps its global bound; others get their cell's
+  // gradient (interval derivatives of the cell's tape).
+  cell.lipschitz = field.full.lipschitz;
+  if (!field.distance) {
+    auto f         = eval_sdf_dual(field.full, build.clauses->data(),
+                build.clauses->data() + cell.count, slot.box);
+    cell.lipschitz = gradient_bound(f);
+    for (auto a = 0; a < 3; a++) cell.gradient[a] = f.d[a];
+  }
   return build;
 }
 

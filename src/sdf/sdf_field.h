@@ -61,6 +61,10 @@ struct sdf_cell {
   float             bound     = 0;   // leaves without clauses: that bound
   interval          range     = {};  // the values over the cell
   float             lipschitz = flt_inf;  // leaves: bound of |gradient|
+  // Leaves of programs that are no distance bounds: the gradient's hull
+  // over the cell (entire: unknown), whose projection on a ray bounds df/dt
+  // with its sign.
+  interval gradient[3] = {entire_interval, entire_interval, entire_interval};
 };
 
 // The cells built so far, shared by copies of a field (sdf_field.cpp).

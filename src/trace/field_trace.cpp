@@ -23,6 +23,17 @@ namespace {
 // the ray enters, not the one it leaves.
 inline constexpr float field_probe_fraction = 1e-4f;
 
+// df/dt along a ray of direction d over a leaf: its gradient's hull
+// projected on d, within its bound of |gradient| times |d|.
+interval leaf_derivative(const sdf_cell& leaf, vec3f d) {
+  auto along = interval{0};
+  for (auto a = 0; a < 3; a++)
+    if (at(d, a) != 0) along = along + leaf.gradient[a] * interval{at(d, a)};
+  auto slope = leaf.lipschitz * length(d);
+  auto lo = std::max(along.lo, -slope), hi = std::min(along.hi, slope);
+  return lo <= hi ? interval{lo, hi} : along;  // empty: roundings apart
+}
+
 // The object's field along one ray, as segment_trace() wants it (see the
 // adaptor's members there). Regions are leaf cells (or invalidid: the whole
 // tape); the last located leaf's box clips the pieces bound() is asked for.
@@ -76,9 +87,13 @@ struct field_ray {
       index      = find(t + probe, exit);
     }
     if (index < 0) return whole;
-    located = &get_sdf_cell(*field, index);
-    return {index, std::min(exit, whole.t_exit), leaf(index).range,
-        leaf(index).lipschitz * length(ray.d)};
+    located    = &get_sdf_cell(*field, index);
+    auto range = located->range;
+    // A leaf on one side of the surface is crossed without its slope.
+    auto derivative = segment_one_side(range)
+                          ? entire_interval
+                          : leaf_derivative(*located, ray.d);
+    return {index, std::min(exit, whole.t_exit), range, derivative};
   }
 
   float value(int region, float t) const {
@@ -125,8 +140,8 @@ march_result trace_field(const trace_object& object, const march_params& params,
   auto  function = field_ray{};
   function.field = &field;
   function.ray   = local;
-  function.whole = {invalidid, t1, object.whole_range,
-      object.whole_lipschitz * length(local.d)};
+  auto slope     = object.whole_lipschitz * length(local.d);
+  function.whole = {invalidid, t1, object.whole_range, {-slope, slope}};
   return segment_trace(function, t0, t1, cutoff, params, hit_min);
 }
 

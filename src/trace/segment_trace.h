@@ -52,12 +52,12 @@ namespace implicit {
 
 // A stretch of the ray inside one region: the region's handle (what the
 // function evaluates with), where the ray leaves it, the range of the values
-// over it and a bound of |df/dt| along the ray there (+inf if none).
+// over it and the interval of df/dt along the ray there (entire if none).
 struct segment_region {
-  int      region = invalidid;
-  float    t_exit = 0;
-  interval range  = entire_interval;
-  float    slope  = flt_inf;
+  int      region     = invalidid;
+  float    t_exit     = 0;
+  interval range      = entire_interval;
+  interval derivative = entire_interval;
 };
 
 // Range over a piece of the ray (the box of its ends), and the interval of
@@ -200,7 +200,8 @@ struct segment_local {
 // way, +inf when unknown (NaN).
 inline float segment_approach(interval derivative, bool start_inside) {
   auto rate = start_inside ? derivative.hi : -derivative.lo;
-  return rate == rate ? std::max(rate, 0.0f) : flt_inf;
+  if (rate != rate) return flt_inf;
+  return rate > 0 ? rate : 0.0f;  // never -0: |f| / -0 is -inf
 }
 
 // Whether f moves strictly towards the other side over the whole segment:
@@ -260,21 +261,24 @@ inline float segment_local_step(const Function& function, int region, float t,
   return std::max(safe, std::min(step, ahead));
 }
 
-// March [a, b] inside one region where |df/dt| <= slope: steps of |f| /
-// slope (or of the local bound ahead) cannot pass a root; shorter ones are
-// taken as the hit threshold and their ends checked. Returns when a change
-// of side is bracketed, the stretch is done, or the budget or the cutoff
-// ends the ray.
+// March [a, b] inside one region where df/dt lies in `derivative` (finite):
+// f approaches the surface at most at `rate` (segment_approach), so steps of
+// |f| / rate (or of the local bound ahead) cannot pass a root; shorter ones
+// are taken as the hit threshold and their ends checked. Where f moves
+// strictly towards the surface over the whole region, the value at its end
+// decides it at once. Returns when a change of side is bracketed, the
+// stretch is done, or the budget or the cutoff ends the ray.
 template <typename Function>
-inline void segment_lipschitz(const Function& function, int region, float slope,
-    float a, float b, const march_params& params, float hit_min,
-    segment_state& state) {
-  auto t = a;
-  auto f = 0.0f;
+inline void segment_lipschitz(const Function& function, int region,
+    interval derivative, float a, float b, const march_params& params,
+    float hit_min, segment_state& state) {
+  auto rate = segment_approach(derivative, state.start_inside);
+  auto t    = a;
+  auto f    = 0.0f;
   if (state.margin > 0 && state.margin_t == a &&
-      state.margin >= slope * (b - a)) {
+      state.margin >= rate * (b - a)) {
     // What the last region left of |f| crosses this one whole.
-    return segment_skip(state, b, state.margin - slope * (b - a));
+    return segment_skip(state, b, state.margin - rate * (b - a));
   }
   if (state.have_last && state.last_t == a) {
     f = state.last_f;
@@ -282,20 +286,29 @@ inline void segment_lipschitz(const Function& function, int region, float slope,
     if (segment_sample(function, region, t, state)) return;
     f = state.last_f;
   }
-  auto local = segment_local{};
+  auto monotone = segment_monotone(derivative, state.start_inside);
+  auto local    = segment_local{};
   while (t < b) {
     if (t > state.cutoff || state.evaluations >= state.max_evaluations) return;
-    // |f| / slope; a NaN value (no finite slope should allow one) steps by
-    // the threshold.
-    auto safe = std::abs(f) / slope;
-    if (!(safe >= 0)) safe = 0;
-    auto decisive = false;
-    safe          = segment_local_step(
-                 function, region, t, b, f, safe, local, state, decisive);
+    // |f| / rate (any step where f cannot approach 0); a NaN value (no
+    // finite slope should allow one) steps by the threshold.
+    auto safe     = f != f ? 0.0f : rate > 0 ? std::abs(f) / rate : flt_inf;
+    auto decisive = monotone && f == f && t + safe < b;
+    if (decisive) {
+      // f reaches 0 by the time it has moved at its least rate: the root
+      // lies before there (or a threshold on, past roundings of f) or the
+      // region holds none.
+      auto least = state.start_inside ? derivative.lo : -derivative.hi;
+      safe       = std::min(b - t,
+                std::max(std::abs(f) / least, segment_epsilon(params, hit_min, t)));
+    } else {
+      safe = segment_local_step(
+          function, region, t, b, f, safe, local, state, decisive);
+    }
     if (!decisive && t + safe >= b) {
       // No root before the end: the next region takes over from there,
       // with what the region's bound leaves of |f| at b.
-      auto margin = std::abs(f) - slope * (b - t);
+      auto margin = std::abs(f) - rate * (b - t);
       segment_skip(state, b, margin > 0 ? margin : 0);
       return;
     }
@@ -390,9 +403,9 @@ inline void segment_isolate(const Function& function, int region,
       state.have_last = false;
       continue;
     }
-    if (auto slope = segment_slope(bound.derivative); slope < flt_inf) {
-      segment_lipschitz(
-          function, region, slope, piece.a, piece.b, params, hit_min, state);
+    if (segment_slope(bound.derivative) < flt_inf) {
+      segment_lipschitz(function, region, bound.derivative, piece.a, piece.b,
+          params, hit_min, state);
       continue;
     }
     auto length = piece.b - piece.a;
@@ -482,9 +495,9 @@ inline march_result segment_trace(const Function& function, float t0, float t1,
         // The range holds at the region's closed box, its exit included.
         segment_skip(state, end, range.hi < 0 ? -range.hi : range.lo);
       }
-    } else if (region.slope < flt_inf) {
-      segment_lipschitz(function, region.region, region.slope, t, end, params,
-          hit_min, state);
+    } else if (segment_slope(region.derivative) < flt_inf) {
+      segment_lipschitz(function, region.region, region.derivative, t, end,
+          params, hit_min, state);
     } else {
       segment_isolate(function, region.region, range, t, end,
           (t1 - t0) * segment_nan_fraction, params, hit_min, state);
