@@ -335,13 +335,14 @@ int find_sdf_cell(const sdf_field& field, vec3f p) {
   return find_sdf_cell(field, p, box);
 }
 
-int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
+int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor,
+    vec3f direction) {
   auto& c = cursor;
   c.cell  = invalidid;
   if (!field.octree || !inside(field.box, p)) return invalidid;
   // The deepest kept ancestor that holds p (the root holds it: p is inside).
   auto k = c.count - 1;
-  while (k > 0 && !inside_half_open(c.boxes[k], p)) k--;
+  while (k > 0 && !inside_towards(c.boxes[k], p, direction)) k--;
   if (k <= 0) {
     k          = 0;
     c.path[0]  = 0;
@@ -353,11 +354,14 @@ int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
   while (true) {
     auto children = get_sdf_cell(field, cell).children;
     if (children < 0) break;
-    auto mid    = (box.min + box.max) * 0.5f;
-    auto octant = (p.x >= mid.x ? 1 : 0) | (p.y >= mid.y ? 2 : 0) |
-                  (p.z >= mid.z ? 4 : 0);
-    box  = octant_box(box, octant);
-    cell = children + octant;
+    auto mid   = (box.min + box.max) * 0.5f;
+    auto upper = [&](int a) {
+      return at(p, a) > at(mid, a) ||
+             (at(p, a) == at(mid, a) && at(direction, a) >= 0);
+    };
+    auto octant = (upper(0) ? 1 : 0) | (upper(1) ? 2 : 0) | (upper(2) ? 4 : 0);
+    box         = octant_box(box, octant);
+    cell        = children + octant;
     if (c.count < sdf_cursor_depth) {
       c.path[c.count]  = cell;
       c.boxes[c.count] = box;

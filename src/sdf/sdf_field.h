@@ -124,6 +124,17 @@ inline bool inside_half_open(const bbox3f& b, vec3f p) {
   return p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y && p.y < b.max.y &&
          p.z >= b.min.z && p.z < b.max.z;
 }
+// The same with a point on a face counted on the side `direction` points
+// into along that axis: (min, max] where it is negative. A ray's point on
+// the face it leaves a cell by then lies in the cell it enters.
+inline bool inside_towards(const bbox3f& b, vec3f p, vec3f direction) {
+  for (auto a = 0; a < 3; a++) {
+    auto x = at(p, a), lo = at(b.min, a), hi = at(b.max, a);
+    if (at(direction, a) < 0 ? !(lo < x && x <= hi) : !(lo <= x && x < hi))
+      return false;
+  }
+  return true;
+}
 inline constexpr int sdf_cursor_depth = 16;  // ancestors kept, from the root
 struct sdf_field_cursor {
   int    cell  = invalidid;  // the leaf
@@ -133,8 +144,10 @@ struct sdf_field_cursor {
   bbox3f boxes[sdf_cursor_depth] = {};
 };
 // The leaf holding p (invalidid outside the field), from the cursor's path;
-// updates the cursor.
-int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor);
+// updates the cursor. A point on a face between cells lies in the one
+// `direction` points into (inside_towards; zero: the upper one).
+int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor,
+    vec3f direction = {});
 inline float eval_sdf(
     const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
   if (!(cursor.cell >= 0 && inside_half_open(cursor.box, p)))

@@ -461,4 +461,35 @@ TEST_CASE("sdf field: a cursor finds the leaf a search from the root finds") {
   CHECK(deep > 1000);
 }
 
+TEST_CASE(
+    "sdf field: a point on a face lies in the cell its direction enters") {
+  // A ray leaving a cell by a face: the point on the face is found in the
+  // cell beyond it, below the face when the ray goes down that axis.
+  auto rng          = make_rng(29);
+  auto program      = random_model(rng, 200, {sdf_type::op_union}, 0.1f, 0.05f);
+  auto params       = sdf_field_params{};
+  params.leaf_nodes = 1;
+  params.max_depth  = 6;
+  auto field = make_sdf_field(program, {{-1, -1, -1}, {1, 1, 1}}, params);
+  REQUIRE((bool)field.octree);
+  auto cursor = sdf_field_cursor{};
+  auto faces  = 0;
+  for (auto k = 0; k < 5000; k++) {
+    auto step   = std::ldexp(1.0f, -(int)(rand1f(rng) * 6));
+    auto p      = uniform3(rng, -1, 1);
+    auto axis   = (int)(rand1f(rng) * 3);
+    at(p, axis) = std::round(at(p, axis) / step) * step;
+    if (std::abs(at(p, axis)) == 1) continue;
+    auto below      = p;
+    at(below, axis) = std::nextafter(at(p, axis), -2.0f);
+    auto down       = vec3f{0, 0, 0};
+    at(down, axis)  = -1;
+    auto lower = find_sdf_cell(field, below), upper = find_sdf_cell(field, p);
+    CHECK(find_sdf_cell(field, p, cursor, down) == lower);
+    CHECK(find_sdf_cell(field, p, cursor, -down) == upper);
+    faces += lower != upper;
+  }
+  CHECK(faces > 1000);
+}
+
 }  // namespace implicit

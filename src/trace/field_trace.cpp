@@ -45,6 +45,10 @@ struct field_ray {
   // its cell, kept: a march asks for it at every step.
   mutable sdf_field_cursor cursor  = {};
   mutable const sdf_cell*  located = nullptr;
+  // Where the ray leaves that leaf: the ray parameter, the axis of the face
+  // and the face's plane (the next find puts the point on it).
+  mutable float exit_t = flt_nan, exit_plane = 0;
+  mutable int   exit_axis = 0;
 
   // The only reads of the octree's cells.
   const sdf_cell& leaf(int region) const {
@@ -66,15 +70,26 @@ struct field_ray {
   // The leaf at the ray point t (its box in cursor.box) and where the ray
   // leaves that box.
   int find(float t, float& exit) const {
-    auto  index = find_sdf_cell(*field, ray_point(ray, t), cursor);
+    // At the exit of the last leaf, the point is put on the face it left
+    // by, which find_sdf_cell places in the leaf the ray enters: the ray
+    // point itself may round to either side.
+    auto p = ray_point(ray, t);
+    if (t == exit_t) at(p, exit_axis) = exit_plane;
+    auto  index = find_sdf_cell(*field, p, cursor, ray.d);
     auto& box   = cursor.box;
     exit        = flt_max;
     for (auto a = 0; a < 3; a++) {
       auto d = at(ray.d, a);
       if (d == 0) continue;
       auto plane = d > 0 ? at(box.max, a) : at(box.min, a);
-      exit       = std::min(exit, (plane - at(ray.o, a)) / d);
+      auto t_a   = (plane - at(ray.o, a)) / d;
+      if (t_a < exit) {
+        exit       = t_a;
+        exit_axis  = a;
+        exit_plane = plane;
+      }
     }
+    exit_t = exit;
     return index;
   }
 
