@@ -211,6 +211,16 @@ inline bool segment_monotone(interval derivative, bool start_inside) {
   return start_inside ? derivative.lo > 0 : derivative.hi < 0;
 }
 
+// Where a decisive step (f moves towards the surface over the whole
+// stretch `ahead`, with `derivative`) ends: where f would have reached 0 at
+// its least rate, so the root lies before there or the stretch holds none
+// (or a threshold on, past roundings of f), or at the stretch's end.
+inline float segment_decisive_step(interval derivative, bool start_inside,
+    float f, float ahead, float epsilon) {
+  auto least = start_inside ? derivative.lo : -derivative.hi;
+  return std::min(ahead, std::max(std::abs(f) / least, epsilon));
+}
+
 // Step from t where the region's slope bound allows `safe`: when that
 // covers little of the stretch to b, the bound over a segment ahead may
 // allow more. A segment serves the steps that start in it while they stay a
@@ -221,13 +231,14 @@ inline bool segment_monotone(interval derivative, bool start_inside) {
 // bound: a slope away from the surface does not shorten the step); a
 // segment whose range excludes 0 is crossed whole. Where f moves strictly
 // towards the surface over the whole segment the step goes to its end and
-// is `decisive`: no root-free step, but one whose end value tells whether
-// the segment holds the (single) root, so the march brackets it at once
-// instead of creeping up to it (Newton's method refines it).
+// is `decisive` (segment_decisive_step): no root-free step, but one whose
+// end value tells whether it passed the (single) root, so the march
+// brackets it at once instead of creeping up to it (Newton's method refines
+// it).
 template <typename Function>
 inline float segment_local_step(const Function& function, int region, float t,
-    float b, float f, float safe, segment_local& local, segment_state& state,
-    bool& decisive) {
+    float b, float f, float safe, float epsilon, segment_local& local,
+    segment_state& state, bool& decisive) {
   decisive = false;
   if (safe >= (b - t) * segment_local_fraction) return safe;
   auto step = 0.0f, ahead = local.end - t;
@@ -250,7 +261,8 @@ inline float segment_local_step(const Function& function, int region, float t,
         segment_monotone(local.derivative, state.start_inside) &&
         step < ahead) {
       decisive = true;
-      return ahead;
+      return segment_decisive_step(
+          local.derivative, state.start_inside, f, ahead, epsilon);
     }
     local.next = step >= ahead ? 2 * local.length : 4 * step;
     if (!fresh && step < local.length * segment_local_fraction)
@@ -293,17 +305,14 @@ inline void segment_lipschitz(const Function& function, int region,
     // |f| / rate (any step where f cannot approach 0); a NaN value (no
     // finite slope should allow one) steps by the threshold.
     auto safe     = f != f ? 0.0f : rate > 0 ? std::abs(f) / rate : flt_inf;
+    auto epsilon  = segment_epsilon(params, hit_min, t);
     auto decisive = monotone && f == f && t + safe < b;
     if (decisive) {
-      // f reaches 0 by the time it has moved at its least rate: the root
-      // lies before there (or a threshold on, past roundings of f) or the
-      // region holds none.
-      auto least = state.start_inside ? derivative.lo : -derivative.hi;
-      safe       = std::min(b - t,
-                std::max(std::abs(f) / least, segment_epsilon(params, hit_min, t)));
+      safe = segment_decisive_step(
+          derivative, state.start_inside, f, b - t, epsilon);
     } else {
       safe = segment_local_step(
-          function, region, t, b, f, safe, local, state, decisive);
+          function, region, t, b, f, safe, epsilon, local, state, decisive);
     }
     if (!decisive && t + safe >= b) {
       // No root before the end: the next region takes over from there,
@@ -312,8 +321,7 @@ inline void segment_lipschitz(const Function& function, int region,
       segment_skip(state, b, margin > 0 ? margin : 0);
       return;
     }
-    auto step =
-        decisive ? safe : std::max(safe, segment_epsilon(params, hit_min, t));
+    auto step = decisive ? safe : std::max(safe, epsilon);
     auto next = std::min(t + step, b);
     if (next <= t) next = float_up(t, 1);
     if (segment_sample(function, region, next, state)) return;
