@@ -229,8 +229,17 @@ inline interval mul_one_sign(interval a, interval b) {
   return {mul_down(b.lo >= 0 ? a.lo : a.hi, b.lo),
       mul_up(b.hi <= 0 ? a.lo : a.hi, b.hi)};
 }
+// a * c for one number c: two corners, the other two are the same
+// products (the same bounds as four corners; NaN gives entire).
+inline interval mul_point(interval a, float c) {
+  return c >= 0 ? checked(mul_down(a.lo, c), mul_up(a.hi, c))
+                : checked(mul_down(a.hi, c), mul_up(a.lo, c));
+}
 // Products of the corners; math_min/max keep a NaN corner (0 * inf).
 inline interval math_mul(interval a, interval b) {
+  // By a constant (most products of a tape): two corners.
+  if (b.lo == b.hi) return mul_point(a, b.lo);
+  if (a.lo == a.hi) return mul_point(b, a.lo);
   // A finite operand of one sign: the smallest and largest products are
   // known corners. Most products in a tape are by a constant (a one-point
   // interval) or of a slope and a derivative.

@@ -346,6 +346,30 @@ TEST_CASE("interval: bounds are tight where they can be") {
   CHECK(math_atan2(interval{0, 1}, interval{-2, -1}).lo <= -pif);
 }
 
+TEST_CASE("interval: a product by one number is the four corners' hull") {
+  // mul_point's two corners give what the four of the general product
+  // give, for any interval (infinite ends included) and any number.
+  auto corners = [](interval a, float c) {
+    auto lo = math_min(math_min(mul_down(a.lo, c), mul_down(a.hi, c)),
+        math_min(mul_down(a.lo, c), mul_down(a.hi, c)));
+    auto hi = math_max(math_max(mul_up(a.lo, c), mul_up(a.hi, c)),
+        math_max(mul_up(a.lo, c), mul_up(a.hi, c)));
+    return checked(lo, hi);
+  };
+  auto ends = {-flt_inf, -3.5f, -1.0f, -1e-30f, 0.0f, 2.0f, 7.25f, flt_inf};
+  for (auto lo : ends)
+    for (auto hi : ends) {
+      if (!(lo <= hi)) continue;
+      for (auto c : {-flt_inf, -2.5f, -1.0f, 0.0f, 1e-3f, 3.0f, flt_inf}) {
+        auto a = interval{lo, hi};
+        CHECK(mul_point(a, c) == corners(a, c));
+        CHECK(math_mul(a, interval{c}) == corners(a, c));
+        CHECK(math_mul(interval{c}, a) == corners(a, c));
+      }
+    }
+  CHECK(is_entire(mul_point(interval{1, 2}, flt_nan)));
+}
+
 TEST_CASE("interval: float_up and float_down step one float, saturating") {
   CHECK(float_up(1, 1) == std::nextafter(1.0f, 2.0f));
   CHECK(float_down(1, 1) == std::nextafter(1.0f, 0.0f));
