@@ -10,7 +10,8 @@
 // - a region whose range excludes 0 holds no surface and is crossed without
 //   an evaluation (the interval test of Knoll et al. 2009, "Fast Ray Tracing
 //   of Arbitrary Implicit Surfaces with Interval and Affine Arithmetic");
-// - in a region with a finite slope bound L, the march steps by |f| / L,
+// - in a region with a finite slope bound, the march steps by |f| over the
+//   rate at which f may approach 0 there (at most its Lipschitz bound L),
 //   which cannot pass a root (segment tracing, Galin et al. 2020, "Segment
 //   Tracing Using Local Lipschitz Bounds": the Lipschitz bound of the
 //   segment ahead, here of the region it lies in), and by at least the hit
@@ -25,8 +26,10 @@
 //   to the threshold, while its border is still bisected; a piece across a
 //   known jump (a repeat's border, a step of floor or mod) is cut there
 //   instead, around a gap of the hit threshold that is only sampled;
-// - a segment over which f moves strictly towards 0 holds at most one
-//   root, so the value at its end decides it at once.
+// - a region or segment over which f moves strictly towards 0 holds at
+//   most one root, so one value decides it at once: where f would reach 0
+//   at its least rate (the region's bound of df/dt is signed: the octree's
+//   leaves keep their gradient's hull, projected on the ray).
 //
 // A hit is a change of side: inside means f < 0, and NaN counts as outside,
 // so NaN regions never stop a ray that starts outside. The first change is
@@ -230,11 +233,10 @@ inline float segment_decisive_step(interval derivative, bool start_inside,
 // segment, f cannot reach 0 before |f| over its approach rate (the signed
 // bound: a slope away from the surface does not shorten the step); a
 // segment whose range excludes 0 is crossed whole. Where f moves strictly
-// towards the surface over the whole segment the step goes to its end and
-// is `decisive` (segment_decisive_step): no root-free step, but one whose
-// end value tells whether it passed the (single) root, so the march
-// brackets it at once instead of creeping up to it (Newton's method refines
-// it).
+// towards the surface over the whole segment the step is `decisive`
+// (segment_decisive_step): no root-free step, but one whose end value
+// tells whether it passed the (single) root, so the march brackets it at
+// once instead of creeping up to it (Newton's method refines it).
 template <typename Function>
 inline float segment_local_step(const Function& function, int region, float t,
     float b, float f, float safe, float epsilon, segment_local& local,
@@ -277,9 +279,9 @@ inline float segment_local_step(const Function& function, int region, float t,
 // f approaches the surface at most at `rate` (segment_approach), so steps of
 // |f| / rate (or of the local bound ahead) cannot pass a root; shorter ones
 // are taken as the hit threshold and their ends checked. Where f moves
-// strictly towards the surface over the whole region, the value at its end
-// decides it at once. Returns when a change of side is bracketed, the
-// stretch is done, or the budget or the cutoff ends the ray.
+// strictly towards the surface over the whole region, one decisive step
+// (segment_decisive_step) settles it. Returns when a change of side is
+// bracketed, the stretch is done, or the budget or the cutoff ends the ray.
 template <typename Function>
 inline void segment_lipschitz(const Function& function, int region,
     interval derivative, float a, float b, const march_params& params,
