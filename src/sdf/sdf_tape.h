@@ -17,7 +17,9 @@
 //   linear scan (fidget's compiler/alloc.rs: walking from the root, a value
 //   takes a register at its last use and frees it at its definition), so a
 //   model of any size evaluates with a few kilobytes of stack. A program that
-//   needs more live values at once is refused with an io_error.
+//   needs more live values at once is refused with an io_error. A constant
+//   operand of add, sub, mul, div, min or max becomes the clause's parameter
+//   (an immediate, as fidget's AddRegImm), with no clause or register.
 //
 // Points are values too: the input clause writes the evaluation point, a map
 // clause applies an affine map, the domain operators (twist .. mirror) warp a
