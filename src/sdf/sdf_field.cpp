@@ -315,6 +315,16 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
   return field;
 }
 
+// The octant of a cell split at `mid` that holds p; a point on a split
+// plane goes the way `direction` points along that axis (zero: upper).
+static int octant_towards(vec3f p, vec3f mid, vec3f direction) {
+  auto upper = [&](int a) {
+    return at(p, a) > at(mid, a) ||
+           (at(p, a) == at(mid, a) && at(direction, a) >= 0);
+  };
+  return (upper(0) ? 1 : 0) | (upper(1) ? 2 : 0) | (upper(2) ? 4 : 0);
+}
+
 int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box) {
   if (!field.octree || !inside(field.box, p)) return invalidid;
   auto cell = 0;
@@ -322,11 +332,9 @@ int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box) {
   while (true) {
     auto children = get_sdf_cell(field, cell).children;
     if (children < 0) return cell;
-    auto mid    = (box.min + box.max) * 0.5f;
-    auto octant = (p.x >= mid.x ? 1 : 0) | (p.y >= mid.y ? 2 : 0) |
-                  (p.z >= mid.z ? 4 : 0);
-    box  = octant_box(box, octant);
-    cell = children + octant;
+    auto octant = octant_towards(p, (box.min + box.max) * 0.5f, {});
+    box         = octant_box(box, octant);
+    cell        = children + octant;
   }
 }
 
@@ -354,12 +362,7 @@ int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor,
   while (true) {
     auto children = get_sdf_cell(field, cell).children;
     if (children < 0) break;
-    auto mid   = (box.min + box.max) * 0.5f;
-    auto upper = [&](int a) {
-      return at(p, a) > at(mid, a) ||
-             (at(p, a) == at(mid, a) && at(direction, a) >= 0);
-    };
-    auto octant = (upper(0) ? 1 : 0) | (upper(1) ? 2 : 0) | (upper(2) ? 4 : 0);
+    auto octant = octant_towards(p, (box.min + box.max) * 0.5f, direction);
     box         = octant_box(box, octant);
     cell        = children + octant;
     if (c.count < sdf_cursor_depth) {

@@ -120,13 +120,9 @@ inline float eval_sdf(const sdf_field& field, vec3f p) {
 // there, not from the root. Boxes are half open, [min, max), as
 // find_sdf_cell splits them, so the leaf is the one it would find: a point
 // in a cell's half-open box lies on its side of every split above it.
-inline bool inside_half_open(const bbox3f& b, vec3f p) {
-  return p.x >= b.min.x && p.x < b.max.x && p.y >= b.min.y && p.y < b.max.y &&
-         p.z >= b.min.z && p.z < b.max.z;
-}
-// The same with a point on a face counted on the side `direction` points
-// into along that axis: (min, max] where it is negative. A ray's point on
-// the face it leaves a cell by then lies in the cell it enters.
+// With a direction, a point on a face counts on the side the direction
+// points into along that axis: (min, max] where it is negative. A ray's
+// point on the face it leaves a cell by then lies in the cell it enters.
 inline bool inside_towards(const bbox3f& b, vec3f p, vec3f direction) {
   for (auto a = 0; a < 3; a++) {
     auto x = at(p, a), lo = at(b.min, a), hi = at(b.max, a);
@@ -134,6 +130,9 @@ inline bool inside_towards(const bbox3f& b, vec3f p, vec3f direction) {
       return false;
   }
   return true;
+}
+inline bool inside_half_open(const bbox3f& b, vec3f p) {
+  return inside_towards(b, p, {});
 }
 inline constexpr int sdf_cursor_depth = 16;  // ancestors kept, from the root
 struct sdf_field_cursor {

@@ -28,7 +28,7 @@ inline constexpr float field_probe_fraction = 1e-4f;
 interval leaf_derivative(const sdf_cell& leaf, vec3f d) {
   auto along = interval{0};
   for (auto a = 0; a < 3; a++)
-    if (at(d, a) != 0) along = along + leaf.gradient[a] * interval{at(d, a)};
+    if (at(d, a) != 0) along = along + mul_point(leaf.gradient[a], at(d, a));
   auto slope = leaf.lipschitz * length(d);
   auto lo = std::max(along.lo, -slope), hi = std::min(along.hi, slope);
   return lo <= hi ? interval{lo, hi} : along;  // empty: roundings apart
