@@ -482,6 +482,71 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
   CHECK(leaves > 100);
   CHECK(finite > 100);
   CHECK(constant > 100);
+  // A cell on one side of the surface is not split: the tracer crosses it
+  // without an evaluation, and its children would only be more cells to
+  // walk through. Here a union of 16 balls (a cell drops the far ones, so
+  // its tape shrinks level after level), its values scaled by 0.01 so that
+  // no cell is far enough for a constant.
+  auto balls = sdf_program{};
+  auto math  = [&](sdf_type type, int a = invalidid, int b = invalidid) {
+    return add_node(balls, make_math(type, a, b));
+  };
+  auto number = [&](float value) {
+    auto node  = make_math(sdf_type::math_const);
+    node.value = value;
+    return add_node(balls, node);
+  };
+  auto balls_root = invalidid;
+  for (auto k = 0; k < 16; k++) {
+    auto centre = uniform3(rng, -1, 1);
+    auto dx =
+        math(sdf_type::math_sub, math(sdf_type::math_x), number(centre.x));
+    auto dy =
+        math(sdf_type::math_sub, math(sdf_type::math_y), number(centre.y));
+    auto dz =
+        math(sdf_type::math_sub, math(sdf_type::math_z), number(centre.z));
+    auto squared = math(sdf_type::math_add,
+        math(sdf_type::math_add, math(sdf_type::math_square, dx),
+            math(sdf_type::math_square, dy)),
+        math(sdf_type::math_square, dz));
+    auto sphere  = math(
+         sdf_type::math_sub, math(sdf_type::math_sqrt, squared), number(0.15f));
+    balls_root = k == 0 ? sphere : math(sdf_type::math_min, balls_root, sphere);
+  }
+  math(sdf_type::math_mul, balls_root, number(0.01f));
+  params.leaf_nodes = 1;  // split wherever the rules allow
+  params.max_depth  = 5;
+  auto small        = make_sdf_field(
+             balls, {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params);
+  REQUIRE(!small.distance);
+  // Split cells, and leaves of clauses, whose range keeps one sign.
+  auto count_one_side = [](const sdf_field& tree, int& split, int& kept) {
+    build_sdf_field(tree);
+    split = kept = 0;
+    auto stack   = std::vector<int>{0};
+    while (!stack.empty()) {
+      auto& cell = get_sdf_cell(tree, stack.back());
+      stack.pop_back();
+      auto side = cell.range.lo > 0 || cell.range.hi < 0;
+      if (cell.children < 0) {
+        kept += side && cell.count > 0;
+        continue;
+      }
+      split += side;
+      for (auto octant = 0; octant < 8; octant++)
+        stack.push_back(cell.children + octant);
+    }
+  };
+  auto split = 0, kept = 0;
+  count_one_side(small, split, kept);
+  CHECK(split == 0);
+  CHECK(kept > 50);
+  // A bake samples every point: there such cells split, as before.
+  params.split_one_side = true;
+  count_one_side(make_sdf_field(balls,
+                     {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params),
+      split, kept);
+  CHECK(split > 500);
 }
 
 TEST_CASE("sdf bounds: where a repeat changes copy") {

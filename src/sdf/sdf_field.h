@@ -38,6 +38,10 @@ struct sdf_field_params {
   int    leaf_nodes = 24;  // a cell with at most this many clauses is a leaf
   int    max_depth  = -1;  // octree levels; -1: about cbrt(nodes) cells/axis
   size_t max_bytes  = 0;   // bytes of the cells built; 0: see make_sdf_field
+  // Whether a cell whose values keep one sign is split further, when the
+  // program is no distance bound: a tracer crosses such a cell whole (no),
+  // a bake samples every point of it (yes: short tapes there).
+  bool split_one_side = false;
 };
 
 // One octree cell: eight children from `children`, or a leaf with its

@@ -82,9 +82,13 @@ grid_data bake_grid(const sdf_program& program, const frame3f& local_from_world,
   // A map that stretches by s scales distances by s: divide it out.
   auto scale = 1 / max_stretch(local_from_world);
   // The program pruned over the sampled box (samples reach one voxel past
-  // the bounds), so each sample evaluates only the operands near it.
-  auto  field = make_sdf_field(program,
-       transform_bbox(local_from_world, expand(bounds_world, 2 * spacing)));
+  // the bounds), so each sample evaluates only the operands near it, also
+  // far from the surface.
+  auto params           = sdf_field_params{};
+  params.split_one_side = true;
+  auto sampled =
+      transform_bbox(local_from_world, expand(bounds_world, 2 * spacing));
+  auto  field = make_sdf_field(program, sampled, params);
   auto  bad   = std::atomic<bool>{false};
   auto& n     = grid.dims;
   auto  chunk = std::max(1, n.z / 64);

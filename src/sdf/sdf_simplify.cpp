@@ -351,12 +351,14 @@ void emit_clauses(const std::vector<sdf_ssa>& ssa, sdf_simplify_state& state,
 
 interval simplify_sdf(const sdf_tape& pool, const std::vector<sdf_ssa>& ssa,
     const bbox3f& box, sdf_simplify_state& state,
-    std::vector<sdf_ssa>& simplified) {
+    std::vector<sdf_ssa>& simplified, float far) {
   if (ssa.empty()) return entire_interval;
   bound_clauses(pool, ssa, box, state);
+  auto range = state.values[ssa.size() - 1];
+  if (range.lo >= far || range.hi <= -far) return range;
   propagate_caps(ssa, state);
   emit_clauses(ssa, state, simplified);
-  return state.values[ssa.size() - 1];
+  return range;
 }
 
 sdf_tape simplify_sdf(const sdf_tape& tape, const bbox3f& box) {

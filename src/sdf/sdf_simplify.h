@@ -46,9 +46,11 @@ struct sdf_simplify_state {
 // The SSA clauses `ssa` (over the nodes and maps of `pool`) restricted to
 // `box`, appended to `simplified`: equal to `ssa` at every point of the box
 // (up to float rounding). Returns the interval of the root over the box.
+// When that interval lies `far` or farther from 0, nothing is appended: a
+// caller that keeps only a bound there skips the two passes that drop.
 interval simplify_sdf(const sdf_tape& pool, const std::vector<sdf_ssa>& ssa,
     const bbox3f& box, sdf_simplify_state& state,
-    std::vector<sdf_ssa>& simplified);
+    std::vector<sdf_ssa>& simplified, float far = flt_inf);
 
 // A tape restricted to `box`: its nodes and maps with the simplified clauses
 // (for tests and single queries; fields keep one pool for all their cells).

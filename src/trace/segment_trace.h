@@ -489,10 +489,18 @@ inline march_result segment_trace(const Function& function, float t0, float t1,
   state.max_evaluations = params.max_iterations * segment_evaluation_factor;
   auto t                = t0;
   auto region           = function.locate(t);
-  auto f                = function.value(region.region, t);
-  state.evaluations     = 1;
-  state.start_inside    = segment_inside(f);
-  segment_advance(state, t, f);
+  if (segment_one_side(region.range)) {
+    // The start's side is the region's: no evaluation (a ray that starts
+    // far from the surface, as most do, costs none before its first
+    // region that may hold a root).
+    state.start_inside = region.range.hi < 0;
+    segment_skip(state, t, 0);
+  } else {
+    auto f             = function.value(region.region, t);
+    state.evaluations  = 1;
+    state.start_inside = segment_inside(f);
+    segment_advance(state, t, f);
+  }
   while (t < t1 && !state.found) {
     if (state.last_t > cutoff || state.evaluations >= state.max_evaluations)
       break;

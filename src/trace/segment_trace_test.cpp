@@ -338,6 +338,25 @@ TEST_CASE("segment trace: a surface ahead costs few evaluations") {
   }
 }
 
+TEST_CASE("segment trace: a ray that starts on one side costs nothing there") {
+  // From a corner of the box along x at y = z = 1.1, x^2 + y^2 + z^2 - 1
+  // stays above 1.4: every one of the 8 regions it crosses holds one side
+  // only, the start's side included, so no value is needed (before: 1).
+  auto ray   = closed_form_ray<scaled_sphere>{scaled_sphere{1},
+        ray3f{{-3, 1.1f, 1.1f}, {1, 0, 0}, 0, flt_max}, unit_box, 8};
+  auto march = segment_trace(ray, 1.8f, 4.2f, flt_max, march_params{}, 1e-6f);
+  CHECK(!march.hit);
+  CHECK(march.evaluations == 0);
+  // Starting inside, in a region on the inside only, the start is inside:
+  // the exit is found.
+  auto out = closed_form_ray<scaled_sphere>{
+      scaled_sphere{1}, ray3f{{0, 0, 0}, {1, 0, 0}, 0, flt_max}, unit_box, 8};
+  REQUIRE(segment_one_side(out.locate(0).range));
+  auto exit = segment_trace(out, 0, 1.2f, flt_max, march_params{}, 1e-6f);
+  CHECK(exit.hit);
+  CHECK(exit.distance == doctest::Approx(1).epsilon(1e-5));
+}
+
 // exp(x) - 2: falls towards its root at ln 2 from +x at a rate between
 // e^-2 and e^2 over the unit box's region, so an approach by steps of
 // |f| / e^2 creeps up to it.
