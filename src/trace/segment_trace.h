@@ -302,6 +302,21 @@ inline void segment_lipschitz(const Function& function, int region,
   }
   auto monotone = segment_monotone(derivative, state.start_inside);
   auto local    = segment_local{};
+  // The far end: where f there lies on the start side, no root lies within
+  // |f| over the rate at which f may approach 0 backwards from it, so the
+  // march need only pass `reach` (a ray passing a surface by is settled
+  // from both ends of the region; the organic model: 10.7 -> 9.0 values
+  // per hit, 1.03 -> 0.86 per miss, 1.06x).
+  auto reach = b, f_b = flt_nan;
+  if (!monotone && f == f && rate > 0 && std::abs(f) / rate < b - t) {
+    f_b = function.value(region, b);
+    state.evaluations++;
+    auto back = segment_approach(derivative, !state.start_inside);
+    if (f_b == f_b && segment_inside(f_b) == state.start_inside) {
+      reach = back > 0 ? b - std::abs(f_b) / back : -flt_inf;
+      if (t + std::abs(f) / rate > reach) return segment_advance(state, b, f_b);
+    }
+  }
   while (t < b) {
     if (t > state.cutoff || state.evaluations >= state.max_evaluations) return;
     // |f| / rate (any step where f cannot approach 0); a NaN value (no
@@ -316,6 +331,8 @@ inline void segment_lipschitz(const Function& function, int region,
       safe = segment_local_step(
           function, region, t, b, f, safe, epsilon, local, state, decisive);
     }
+    if (!decisive && t + safe > reach && reach < b)
+      return segment_advance(state, b, f_b);
     if (!decisive && t + safe >= b) {
       // No root before the end: the next region takes over from there,
       // with what the region's bound leaves of |f| at b.
