@@ -547,6 +547,30 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
                      {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params),
       split, kept);
   CHECK(split > 500);
+  // Where the surface passes with a long tape (over 4 x leaf_nodes
+  // clauses), a cell goes one level past max_depth, and no further.
+  params            = sdf_field_params{};
+  params.leaf_nodes = 4;
+  params.max_depth  = 2;
+  auto deeper       = make_sdf_field(
+            balls, {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params);
+  CHECK(deeper.depth == 3);
+  build_sdf_field(deeper);
+  auto levels = std::vector<std::pair<int, int>>{{0, 0}};
+  auto counts = std::vector<int>(8, 0);
+  while (!levels.empty()) {
+    auto [index, level] = levels.back();
+    levels.pop_back();
+    auto& cell = get_sdf_cell(deeper, index);
+    if (cell.children < 0) {
+      counts[level]++;
+      continue;
+    }
+    for (auto octant = 0; octant < 8; octant++)
+      levels.push_back({cell.children + octant, level + 1});
+  }
+  CHECK(counts[3] > 0);
+  CHECK(counts[4] == 0);
 }
 
 TEST_CASE("sdf bounds: where a repeat changes copy") {

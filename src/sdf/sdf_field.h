@@ -35,9 +35,12 @@ namespace implicit {
 
 // How far an sdf_field subdivides.
 struct sdf_field_params {
-  int    leaf_nodes = 24;  // a cell with at most this many clauses is a leaf
-  int    max_depth  = -1;  // octree levels; -1: about cbrt(nodes) cells/axis
-  size_t max_bytes  = 0;   // bytes of the cells built; 0: see make_sdf_field
+  int leaf_nodes = 24;  // a cell with at most this many clauses is a leaf
+  // Octree levels (-1: about cbrt(nodes) cells per axis); one more where
+  // the surface of a function that is no distance bound passes with over
+  // 4 x leaf_nodes clauses.
+  int    max_depth = -1;
+  size_t max_bytes = 0;  // bytes of the cells built; 0: see make_sdf_field
   // Whether a cell whose values keep one sign is split further, when the
   // program is no distance bound: a tracer crosses such a cell whole (no),
   // a bake samples every point of it (yes: short tapes there).
