@@ -129,8 +129,8 @@ static sdf_clause* add_clauses(sdf_field_cells& cells, size_t count) {
 
 // The deepest level a cell may split to: the field's, and one more where
 // the surface of a function that is no distance bound passes with a long
-// tape (the organic model's leaves there hold about 105 clauses at its
-// depth 6; one more level there: 1.10x, the text slab's leaves, of 33,
+// tape (the organic model's leaves there held about 105 clauses at its
+// depth 6; one more level there: 1.09x, the text slab's leaves, of 33,
 // unchanged; every surface leaf one level deeper: the slab 1.21x slower,
 // 1.8x the memory).
 static int deepest_level(const sdf_field& field, const sdf_field_cells& cells,
@@ -185,15 +185,16 @@ static cell_build simplify_cell(
   }
   // A leaf when small enough, deep enough, past the memory budget, or when
   // simplification stopped working (a chain of roundings has nothing to
-  // drop: its cells would multiply copies of it). A function that is no
-  // distance bound stops where its range lies on one side of 0, unless
-  // asked to split: its tracer crosses such a cell without an evaluation,
-  // and smaller cells there were only more to walk through (the organic
-  // model at 1024 px: 16 leaves found per missing ray before, 9 now; 1.10x). An
-  // expression gets two levels without a drop: interval bounds of exp/ln blends
-  // decide a `min` of two parts only in cells half the size of those that first
-  // hold both (the organic model of bench/make_organic.py at 512 px: one
-  // level 8.5 s, two 3.3 s, no limit 3.3 s).
+  // drop: its cells would multiply copies of it). An expression gets two
+  // levels without a drop: interval bounds of exp/ln blends decide a `min`
+  // of two parts only in cells half the size of those that first hold both
+  // (the organic model of bench/make_organic.py at 512 px: one level 8.5 s,
+  // two 3.3 s, no limit 3.3 s).
+  // A function that is no distance bound also stops where its range keeps
+  // one sign, unless asked to split: its tracer crosses such a cell without
+  // an evaluation, and smaller cells there were only more to walk through
+  // (the organic model at 1024 px: 16 leaves found per missing ray before,
+  // 9 now; 1.10x).
   build.stalled     = size >= slot.clauses->size() ? slot.stalled + 1 : 0;
   auto stall_levels = field.distance ? 1 : 2;
   auto one_side     = !field.distance && !cells.params.split_one_side &&
