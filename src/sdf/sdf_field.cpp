@@ -134,10 +134,9 @@ static sdf_clause* add_clauses(sdf_field_cells& cells, size_t count) {
 // unchanged; every surface leaf one level deeper: the slab 1.21x slower,
 // 1.8x the memory).
 static int deepest_level(const sdf_field& field, const sdf_field_cells& cells,
-    interval range, size_t size) {
-  auto surface = !(range.lo > 0 || range.hi < 0);
-  auto longer  = (int)size > 4 * cells.params.leaf_nodes;
-  return cells.max_depth + (!field.distance && surface && longer ? 1 : 0);
+    bool one_sign, size_t size) {
+  auto longer = (int)size > 4 * cells.params.leaf_nodes;
+  return cells.max_depth + (!field.distance && !one_sign && longer ? 1 : 0);
 }
 
 // What building a cell decided, before it is published. The clauses live
@@ -179,7 +178,7 @@ static cell_build simplify_cell(
   auto  size = simplified.size();
   auto& cell = build.cell;
   cell.range = range;
-  if (range.lo >= far || range.hi <= -far) {
+  if (is_far(range, far)) {
     cell.bound = range.lo > 0 ? range.lo : range.hi;
     return build;
   }
@@ -197,10 +196,10 @@ static cell_build simplify_cell(
   // 9 now; 1.10x).
   build.stalled     = size >= slot.clauses->size() ? slot.stalled + 1 : 0;
   auto stall_levels = field.distance ? 1 : 2;
-  auto one_side     = !field.distance && !cells.params.split_one_side &&
-                  (range.lo > 0 || range.hi < 0);
-  auto leaf = one_side || (int)size <= cells.params.leaf_nodes ||
-              slot.depth >= deepest_level(field, cells, range, size) ||
+  auto one_sign     = range.lo > 0 || range.hi < 0;
+  auto one_side = !field.distance && !cells.params.split_one_side && one_sign;
+  auto leaf     = one_side || (int)size <= cells.params.leaf_nodes ||
+              slot.depth >= deepest_level(field, cells, one_sign, size) ||
               over_budget || (slot.depth >= 3 && build.stalled >= stall_levels);
   if (!leaf) {
     build.split = true;

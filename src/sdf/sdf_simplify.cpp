@@ -355,7 +355,7 @@ interval simplify_sdf(const sdf_tape& pool, const std::vector<sdf_ssa>& ssa,
   if (ssa.empty()) return entire_interval;
   bound_clauses(pool, ssa, box, state);
   auto range = state.values[ssa.size() - 1];
-  if (range.lo >= far || range.hi <= -far) return range;
+  if (is_far(range, far)) return range;
   propagate_caps(ssa, state);
   emit_clauses(ssa, state, simplified);
   return range;

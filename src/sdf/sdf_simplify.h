@@ -43,10 +43,15 @@ struct sdf_simplify_state {
   std::vector<sdf_clause> registers = {};
 };
 
+// Whether a range lies `far` or farther from 0 (on either side).
+inline bool is_far(interval range, float far) {
+  return range.lo >= far || range.hi <= -far;
+}
+
 // The SSA clauses `ssa` (over the nodes and maps of `pool`) restricted to
 // `box`, appended to `simplified`: equal to `ssa` at every point of the box
 // (up to float rounding). Returns the interval of the root over the box.
-// When that interval lies `far` or farther from 0, nothing is appended: a
+// When that interval is_far() from 0, nothing is appended: a
 // caller that keeps only a bound there skips the two passes that drop.
 interval simplify_sdf(const sdf_tape& pool, const std::vector<sdf_ssa>& ssa,
     const bbox3f& box, sdf_simplify_state& state,
