@@ -49,6 +49,87 @@ struct method_stats {
   long   box_steps = 0;  // work of the rays that cross the grid's box
 };
 
+// Camera rays from `views` cameras on a circle around the grid's box,
+// looking at its centre.
+std::vector<ray3f> make_view_rays(
+    const bbox3f& box, int views, int resolution) {
+  auto target = center(box);
+  auto radius = length(size(box)) * 1.6f;
+  auto rays   = std::vector<ray3f>{};
+  for (auto v = 0; v < views; v++) {
+    auto angle = 2 * pif * (v + 0.125f) / views;
+    auto eye = target + vec3f{std::cos(angle), 0.35f, std::sin(angle)} * radius;
+    auto camera = lookat_frame(eye, target, {0, 1, 0});
+    auto half   = std::tan(radians(20.0f));
+    for (auto j = 0; j < resolution; j++) {
+      for (auto i = 0; i < resolution; i++) {
+        auto u = ((i + 0.5f) / resolution * 2 - 1) * half;
+        auto w = ((j + 0.5f) / resolution * 2 - 1) * half;
+        auto d = normalize(camera.x * u + camera.y * w - camera.z);
+        rays.push_back({eye, d, 0, radius * 4});
+      }
+    }
+  }
+  return rays;
+}
+
+// Trace every ray with `intersect(ray, t, steps)`; hit distances go to
+// `hit_t` (-1: a miss).
+template <class Intersect>
+method_stats trace_rays(const std::vector<ray3f>& rays,
+    const std::vector<bool>& in_box, std::vector<float>& hit_t,
+    const Intersect& intersect) {
+  auto stats = method_stats{};
+  hit_t.assign(rays.size(), -1);
+  auto start = bench_clock::now();
+  for (auto r = size_t{0}; r < rays.size(); r++) {
+    auto t     = 0.0f;
+    auto steps = 0;
+    if (intersect(rays[r], t, steps)) {
+      stats.hits++;
+      hit_t[r] = t;
+    }
+    stats.steps += steps;
+    if (in_box[r]) stats.box_steps += steps;
+  }
+  stats.seconds = seconds_since(start);
+  stats.rays    = (long)rays.size();
+  return stats;
+}
+
+// The two methods' rates and work, relative to sphere tracing, and where
+// their hits disagree.
+void print_methods(const method_stats& sphere, const method_stats& exact,
+    const std::vector<float>& sphere_t, const std::vector<float>& exact_t,
+    float spacing, long box_rays) {
+  auto mismatch = 0L;
+  auto t_error  = 0.0;
+  auto both     = 0L;
+  for (auto r = size_t{0}; r < exact_t.size(); r++) {
+    if ((exact_t[r] >= 0) != (sphere_t[r] >= 0)) mismatch++;
+    if (exact_t[r] >= 0 && sphere_t[r] >= 0) {
+      t_error += std::abs(exact_t[r] - sphere_t[r]) / spacing;
+      both++;
+    }
+  }
+
+  std::printf("%-24s %8s %8s %12s %15s %7s\n", "method", "Mrays/s", "hits",
+      "work/ray", "work/box ray", "ratio");
+  auto row = [&](const char* name, const method_stats& s, const char* unit) {
+    auto rate = s.rays / s.seconds / 1e6;
+    std::printf("%-24s %8.3f %8ld %6.2f %-5s %9.2f %-5s %6.2fx\n", name, rate,
+        s.hits, (double)s.steps / s.rays, unit,
+        (double)s.box_steps / std::max(box_rays, 1L), unit,
+        rate / (sphere.rays / sphere.seconds / 1e6));
+  };
+  row("sphere tracing (seed)", sphere, "evals");
+  row("exact (skip distances)", exact, "cells");
+  std::printf(
+      "\nhit/miss disagreements: %ld of %zu rays; mean |t_exact - "
+      "t_sphere| = %.4f voxels\n",
+      mismatch, exact_t.size(), both ? t_error / both : 0.0);
+}
+
 }  // namespace
 
 int main(int argc, const char** argv) {
@@ -79,25 +160,8 @@ int main(int argc, const char** argv) {
   auto accel_time = seconds_since(accel_start);
   auto stats      = compute_grid_stats(grid);
 
-  // Cameras on a circle around the grid's box, looking at its centre.
-  auto box    = grid_bounds(grid);
-  auto target = center(box);
-  auto radius = length(size(box)) * 1.6f;
-  auto rays   = std::vector<ray3f>{};
-  for (auto v = 0; v < views; v++) {
-    auto angle = 2 * pif * (v + 0.125f) / views;
-    auto eye = target + vec3f{std::cos(angle), 0.35f, std::sin(angle)} * radius;
-    auto camera = lookat_frame(eye, target, {0, 1, 0});
-    auto half   = std::tan(radians(20.0f));
-    for (auto j = 0; j < resolution; j++) {
-      for (auto i = 0; i < resolution; i++) {
-        auto u = ((i + 0.5f) / resolution * 2 - 1) * half;
-        auto w = ((j + 0.5f) / resolution * 2 - 1) * half;
-        auto d = normalize(camera.x * u + camera.y * w - camera.z);
-        rays.push_back({eye, d, 0, radius * 4});
-      }
-    }
-  }
+  auto box  = grid_bounds(grid);
+  auto rays = make_view_rays(box, views, resolution);
 
   // Which rays cross the grid's box (work is also reported for those).
   auto in_box   = std::vector<bool>(rays.size());
@@ -108,51 +172,18 @@ int main(int argc, const char** argv) {
     box_rays += in_box[r];
   }
 
-  // Exact intersection.
-  auto exact   = method_stats{};
-  auto exact_t = std::vector<float>(rays.size(), -1);
-  auto start   = bench_clock::now();
-  for (auto r = size_t{0}; r < rays.size(); r++) {
-    auto t     = 0.0f;
-    auto steps = 0;
-    if (intersect_grid(grid, rays[r], t, steps)) {
-      exact.hits++;
-      exact_t[r] = t;
-    }
-    exact.steps += steps;
-    if (in_box[r]) exact.box_steps += steps;
-  }
-  exact.seconds = seconds_since(start);
-  exact.rays    = (long)rays.size();
-
-  // Sphere tracing, hit threshold 1e-3 voxel, at most 1000 steps.
-  auto sphere   = method_stats{};
-  auto mismatch = 0L;
-  auto t_error  = 0.0;
-  auto epsilon  = 1e-3f * grid.spacing;
-  auto sphere_t = std::vector<float>(rays.size(), -1);
-  start         = bench_clock::now();
-  for (auto r = size_t{0}; r < rays.size(); r++) {
-    auto t     = 0.0f;
-    auto steps = 0;
-    if (sphere_trace_grid(grid, rays[r], epsilon, 1000, t, steps)) {
-      sphere.hits++;
-      sphere_t[r] = t;
-    }
-    sphere.steps += steps;
-    if (in_box[r]) sphere.box_steps += steps;
-  }
-  sphere.seconds = seconds_since(start);
-  sphere.rays    = (long)rays.size();
-  auto both      = 0L;
-  for (auto r = size_t{0}; r < rays.size(); r++) {
-    if ((exact_t[r] >= 0) != (sphere_t[r] >= 0)) mismatch++;
-    if (exact_t[r] >= 0 && sphere_t[r] >= 0) {
-      t_error += std::abs(exact_t[r] - sphere_t[r]) / grid.spacing;
-      both++;
-    }
-  }
-
+  // Exact intersection; sphere tracing, hit threshold 1e-3 voxel, at most
+  // 1000 steps.
+  auto exact_t = std::vector<float>{}, sphere_t = std::vector<float>{};
+  auto exact = trace_rays(
+      rays, in_box, exact_t, [&](const ray3f& ray, float& t, int& steps) {
+        return intersect_grid(grid, ray, t, steps);
+      });
+  auto epsilon = 1e-3f * grid.spacing;
+  auto sphere  = trace_rays(
+       rays, in_box, sphere_t, [&](const ray3f& ray, float& t, int& steps) {
+        return sphere_trace_grid(grid, ray, epsilon, 1000, t, steps);
+      });
   std::printf("grid      %s\n", filename.c_str());
   std::printf("dims      %d x %d x %d, spacing %g, %lld surface voxels\n",
       grid.dims.x, grid.dims.y, grid.dims.z, grid.spacing,
@@ -169,20 +200,6 @@ int main(int argc, const char** argv) {
       "rays      %d views x %d^2 = %zu camera rays (%ld cross the box), "
       "1 thread, grid space\n\n",
       views, resolution, rays.size(), box_rays);
-  std::printf("%-24s %8s %8s %12s %15s %7s\n", "method", "Mrays/s", "hits",
-      "work/ray", "work/box ray", "ratio");
-  auto row = [&](const char* name, const method_stats& s, const char* unit) {
-    auto rate = s.rays / s.seconds / 1e6;
-    std::printf("%-24s %8.3f %8ld %6.2f %-5s %9.2f %-5s %6.2fx\n", name, rate,
-        s.hits, (double)s.steps / s.rays, unit,
-        (double)s.box_steps / std::max(box_rays, 1L), unit,
-        rate / (sphere.rays / sphere.seconds / 1e6));
-  };
-  row("sphere tracing (seed)", sphere, "evals");
-  row("exact (skip distances)", exact, "cells");
-  std::printf(
-      "\nhit/miss disagreements: %ld of %zu rays; mean |t_exact - "
-      "t_sphere| = %.4f voxels\n",
-      mismatch, rays.size(), both ? t_error / both : 0.0);
+  print_methods(sphere, exact, sphere_t, exact_t, grid.spacing, box_rays);
   return 0;
 }

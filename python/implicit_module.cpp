@@ -751,12 +751,10 @@ py::tuple mesh_to_arrays(const mesh_data& mesh) {
 // MODULE
 // -----------------------------------------------------------------------------
 
-PYBIND11_MODULE(_implicit, m) {
-  m.doc() =
-      "implicit's renderer, SDF evaluator and file writers (internal; "
-      "use the package `implicit`)";
-  py::register_exception<io_error>(m, "Error", PyExc_Exception);
+namespace {
 
+// Scenes, rendering and the progressive renderer.
+void bind_scenes(py::module_& m) {
   py::class_<py_scene, std::shared_ptr<py_scene>>(m, "LoadedScene")
       .def_property_readonly(
           "filename", [](const py_scene& s) { return s.filename; })
@@ -808,7 +806,10 @@ PYBIND11_MODULE(_implicit, m) {
               "image: the renderer is rendering (in another thread)");
         return image_to_array(get_image(r.state));
       });
+}
 
+// Images and files.
+void bind_files(py::module_& m) {
   m.def(
       "save_image",
       [](const std::string& filename, const py::array& array, float exposure,
@@ -840,7 +841,10 @@ PYBIND11_MODULE(_implicit, m) {
         return image_to_array(image);
       },
       py::arg("filename"));
+}
 
+// Compiled SDFs: evaluation, meshes, grids and .vm files.
+void bind_sdfs(py::module_& m) {
   py::class_<py_sdf>(m, "CompiledSDF")
       .def("eval", &eval_sdf_array, py::arg("points"))
       .def("gradient", &gradient_sdf_array, py::arg("points"))
@@ -893,4 +897,17 @@ PYBIND11_MODULE(_implicit, m) {
       },
       py::arg("filename"));
   m.attr("sdf_expression_functions") = sdf_expression_functions;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_implicit, m) {
+  m.doc() =
+      "implicit's renderer, SDF evaluator and file writers (internal; "
+      "use the package `implicit`)";
+  py::register_exception<io_error>(m, "Error", PyExc_Exception);
+
+  bind_scenes(m);
+  bind_files(m);
+  bind_sdfs(m);
 }

@@ -453,6 +453,115 @@ void run_types() {
   }
 }
 
+// The subcommands and what they read.
+struct ysdf_command_line {
+  std::string    in_file = "", out_file = "";
+  bool           binary = false, text = false, in_binary = false;
+  bake_options   bake  = {};
+  float          voxel = 0, shell = 0;  // from-mesh
+  int            pad           = 3;     // from-mesh
+  sample_options mesh_sampling = {};    // to-mesh
+  CLI::App *     info = nullptr, *convert = nullptr, *bake_cmd = nullptr,
+           *from_mesh = nullptr, *to_mesh = nullptr, *types = nullptr;
+};
+
+// info and convert.
+void add_grid_commands(CLI::App& app, ysdf_command_line& cl) {
+  cl.info = app.add_subcommand("info", "Print a grid's header and statistics");
+  cl.info->add_option("file", cl.in_file, "Grid file")->required();
+  cl.info->add_flag("--binary", cl.binary, "Read a .sdf as skanti binary");
+  cl.info->add_flag("--text", cl.text, "Read a .sdf as SDFGen text");
+
+  cl.convert = app.add_subcommand("convert", "Convert a grid between formats");
+  cl.convert->add_option("input", cl.in_file, "Grid to read")->required();
+  cl.convert
+      ->add_option("output", cl.out_file, "Grid to write (.sdf, .vdb, .vol)")
+      ->required();
+  cl.convert->add_flag("--binary", cl.binary, "Write .sdf as skanti binary");
+  cl.convert->add_flag(
+      "--in-binary", cl.in_binary, "Read a .sdf as skanti binary");
+}
+
+void add_bake_command(CLI::App& app, ysdf_command_line& cl) {
+  auto& bake  = cl.bake;
+  auto  cmd   = app.add_subcommand("bake", "Bake analytic SDFs into a grid");
+  cl.bake_cmd = cmd;
+  cmd->add_option("output", bake.output, "Grid to write")->required();
+  cmd->add_option("--voxel", bake.sampling.voxel, "Voxel size")->required();
+  cmd->add_option("--shape", bake.shapes,
+      "Shape \"TYPE key=value ...\": a primitive with the keys of scene "
+      "files (x,y,z for arrays; 'ysdf types' lists them) and at=x,y,z; a "
+      "leading '-' subtracts; repeat to combine");
+  cmd->add_option("--scene", bake.scene, "Scene whose sdfunctions to bake");
+  cmd->add_option("--expression", bake.expression,
+      "Infix formula over x, y, z to bake (README \"Expressions\")");
+  cmd->add_option("--vm", bake.vm, "fidget .vm file to bake");
+  cmd->add_option(
+      "--blend", bake.blend, "Smooth blend radius for combining shapes");
+  cmd->add_option(
+      "--pad", bake.sampling.pad, "Padding in voxels around the bounds");
+  cmd->add_option("--bounds", bake.sampling.bounds,
+         "World box xmin ymin zmin xmax ymax zmax")
+      ->expected(6);
+  cmd->add_flag("--binary", bake.binary, "Write .sdf as skanti binary");
+}
+
+// from-mesh and to-mesh.
+void add_mesh_commands(CLI::App& app, ysdf_command_line& cl) {
+  cl.from_mesh = app.add_subcommand(
+      "from-mesh", "Make a grid from a triangle mesh (OpenVDB)");
+  cl.from_mesh->add_option("mesh", cl.in_file, "Mesh to read (.obj, .ply)")
+      ->required();
+  cl.from_mesh->add_option("output", cl.out_file, "Grid to write")->required();
+  cl.from_mesh->add_option("--voxel", cl.voxel, "Voxel size")->required();
+  cl.from_mesh->add_option(
+      "--pad", cl.pad, "Padding in voxels around the mesh (>= 1)");
+  cl.from_mesh->add_option("--shell", cl.shell,
+      "Half thickness of a shell around an open mesh (unsigned distance - "
+      "shell)");
+  cl.from_mesh->add_flag("--binary", cl.binary, "Write .sdf as skanti binary");
+
+  cl.to_mesh = app.add_subcommand(
+      "to-mesh", "Extract a triangle mesh from a grid (OpenVDB)");
+  cl.to_mesh
+      ->add_option("input", cl.in_file,
+          "Grid to read, or a scene (.json) or .vm file to bake at --voxel")
+      ->required();
+  cl.to_mesh->add_option("output", cl.out_file, "Mesh to write (.obj, .ply)")
+      ->required();
+  cl.to_mesh->add_flag("--binary", cl.binary, "Read a .sdf as skanti binary");
+  cl.to_mesh->add_flag("--text", cl.text, "Read a .sdf as SDFGen text");
+  cl.to_mesh->add_option("--voxel", cl.mesh_sampling.voxel,
+      "Voxel size to bake a scene or .vm file at");
+  cl.to_mesh->add_option(
+      "--pad", cl.mesh_sampling.pad, "Padding in voxels around the bounds");
+  cl.to_mesh
+      ->add_option("--bounds", cl.mesh_sampling.bounds,
+          "World box xmin ymin zmin xmax ymax zmax")
+      ->expected(6);
+}
+
+// Run the subcommand that was given.
+void run_command(const ysdf_command_line& cl, const reporter& r) {
+  if (*cl.info) {
+    run_info(cl.in_file, cl.binary, cl.text);
+  } else if (*cl.convert) {
+    auto grid =
+        load_grid(cl.in_file, input_format(cl.in_file, cl.in_binary, false));
+    save_and_report(r, cl.out_file, grid, cl.binary);
+  } else if (*cl.bake_cmd) {
+    run_bake(cl.bake, r);
+  } else if (*cl.from_mesh) {
+    run_from_mesh(
+        cl.in_file, cl.out_file, cl.voxel, cl.pad, cl.shell, cl.binary, r);
+  } else if (*cl.to_mesh) {
+    run_to_mesh(
+        cl.in_file, cl.out_file, cl.binary, cl.text, cl.mesh_sampling, r);
+  } else if (*cl.types) {
+    run_types();
+  }
+}
+
 }  // namespace
 
 int main(int argc, const char** argv) {
@@ -462,86 +571,12 @@ int main(int argc, const char** argv) {
   auto r     = reporter{};
   r.terminal = isatty(fileno(stderr)) != 0;
   app.add_flag("-q,--quiet", r.quiet, "No progress or notes on stderr");
-
-  auto in_file = std::string{}, out_file = std::string{};
-  auto binary = false, text = false;
-
-  auto info =
-      app.add_subcommand("info", "Print a grid's header and statistics");
-  info->add_option("file", in_file, "Grid file")->required();
-  info->add_flag("--binary", binary, "Read a .sdf as skanti binary");
-  info->add_flag("--text", text, "Read a .sdf as SDFGen text");
-
-  auto convert =
-      app.add_subcommand("convert", "Convert a grid between formats");
-  convert->add_option("input", in_file, "Grid to read")->required();
-  convert->add_option("output", out_file, "Grid to write (.sdf, .vdb, .vol)")
-      ->required();
-  convert->add_flag("--binary", binary, "Write .sdf as skanti binary");
-  auto in_binary = false;
-  convert->add_flag("--in-binary", in_binary, "Read a .sdf as skanti binary");
-
-  auto bake     = bake_options{};
-  auto bake_cmd = app.add_subcommand("bake", "Bake analytic SDFs into a grid");
-  bake_cmd->add_option("output", bake.output, "Grid to write")->required();
-  bake_cmd->add_option("--voxel", bake.sampling.voxel, "Voxel size")
-      ->required();
-  bake_cmd->add_option("--shape", bake.shapes,
-      "Shape \"TYPE key=value ...\": a primitive with the keys of scene "
-      "files (x,y,z for arrays; 'ysdf types' lists them) and at=x,y,z; a "
-      "leading '-' subtracts; repeat to combine");
-  bake_cmd->add_option(
-      "--scene", bake.scene, "Scene whose sdfunctions to bake");
-  bake_cmd->add_option("--expression", bake.expression,
-      "Infix formula over x, y, z to bake (README \"Expressions\")");
-  bake_cmd->add_option("--vm", bake.vm, "fidget .vm file to bake");
-  bake_cmd->add_option(
-      "--blend", bake.blend, "Smooth blend radius for combining shapes");
-  bake_cmd->add_option(
-      "--pad", bake.sampling.pad, "Padding in voxels around the bounds");
-  bake_cmd
-      ->add_option("--bounds", bake.sampling.bounds,
-          "World box xmin ymin zmin xmax ymax zmax")
-      ->expected(6);
-  bake_cmd->add_flag("--binary", bake.binary, "Write .sdf as skanti binary");
-
-  auto voxel = 0.0f, shell = 0.0f;
-  auto pad       = 3;
-  auto from_mesh = app.add_subcommand(
-      "from-mesh", "Make a grid from a triangle mesh (OpenVDB)");
-  from_mesh->add_option("mesh", in_file, "Mesh to read (.obj, .ply)")
-      ->required();
-  from_mesh->add_option("output", out_file, "Grid to write")->required();
-  from_mesh->add_option("--voxel", voxel, "Voxel size")->required();
-  from_mesh->add_option(
-      "--pad", pad, "Padding in voxels around the mesh (>= 1)");
-  from_mesh->add_option("--shell", shell,
-      "Half thickness of a shell around an open mesh (unsigned distance - "
-      "shell)");
-  from_mesh->add_flag("--binary", binary, "Write .sdf as skanti binary");
-
-  auto to_mesh = app.add_subcommand(
-      "to-mesh", "Extract a triangle mesh from a grid (OpenVDB)");
-  auto mesh_sampling = sample_options{};
-  to_mesh
-      ->add_option("input", in_file,
-          "Grid to read, or a scene (.json) or .vm file to bake at --voxel")
-      ->required();
-  to_mesh->add_option("output", out_file, "Mesh to write (.obj, .ply)")
-      ->required();
-  to_mesh->add_flag("--binary", binary, "Read a .sdf as skanti binary");
-  to_mesh->add_flag("--text", text, "Read a .sdf as SDFGen text");
-  to_mesh->add_option("--voxel", mesh_sampling.voxel,
-      "Voxel size to bake a scene or .vm file at");
-  to_mesh->add_option(
-      "--pad", mesh_sampling.pad, "Padding in voxels around the bounds");
-  to_mesh
-      ->add_option("--bounds", mesh_sampling.bounds,
-          "World box xmin ymin zmin xmax ymax zmax")
-      ->expected(6);
-  auto types = app.add_subcommand(
+  auto cl = ysdf_command_line{};
+  add_grid_commands(app, cl);
+  add_bake_command(app, cl);
+  add_mesh_commands(app, cl);
+  cl.types = app.add_subcommand(
       "types", "List the scene format's sdfunction types and their keys");
-
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -552,22 +587,8 @@ int main(int argc, const char** argv) {
     std::fprintf(stderr, "ysdf: %s (see ysdf --help)\n", e.what());
     return 1;
   }
-
   try {
-    if (*info) {
-      run_info(in_file, binary, text);
-    } else if (*convert) {
-      auto grid = load_grid(in_file, input_format(in_file, in_binary, false));
-      save_and_report(r, out_file, grid, binary);
-    } else if (*bake_cmd) {
-      run_bake(bake, r);
-    } else if (*from_mesh) {
-      run_from_mesh(in_file, out_file, voxel, pad, shell, binary, r);
-    } else if (*to_mesh) {
-      run_to_mesh(in_file, out_file, binary, text, mesh_sampling, r);
-    } else if (*types) {
-      run_types();
-    }
+    run_command(cl, r);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "ysdf: %s\n", e.what());
     return 1;

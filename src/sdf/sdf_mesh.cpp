@@ -116,18 +116,13 @@ static void distance_transform(std::vector<float>& values, vec3i n) {
   }
 }
 
-grid_data mesh_to_grid(
-    const mesh_data& mesh, float voxel, int padding, float shell) {
-  if (!(voxel > 0) || !std::isfinite(voxel))
-    throw io_error("mesh: voxel size " + std::to_string(voxel) +
-                   " must be positive and finite");
-  if (padding < 1) throw io_error("mesh: padding must be at least 1 voxel");
-  if (mesh.triangles.empty()) throw io_error("mesh: no triangles");
+// The grid of the lattice voxel * (i, j, k) around the mesh's bounds, plus
+// padding, and the OpenVDB coordinate of its first sample. Counts in double
+// so that a tiny voxel is refused instead of overflowing.
+static grid_data make_mesh_grid(const mesh_data& mesh, float voxel, int padding,
+    openvdb::Coord& min_coord) {
   auto bounds = mesh_bounds(mesh);
   if (!is_finite(bounds)) throw io_error("mesh: positions are not finite");
-
-  // Index box: the lattice voxel*(i,j,k) around the bounds, plus padding.
-  // Counts in double so that a tiny voxel is refused instead of overflowing.
   double lo[3], hi[3];
   for (auto a = 0; a < 3; a++) {
     lo[a] = std::floor((double)at(bounds.min, a) / voxel) - padding;
@@ -139,11 +134,18 @@ grid_data mesh_to_grid(
   auto error = check_grid_dims((int64_t)(hi[0] - lo[0] + 1),
       (int64_t)(hi[1] - lo[1] + 1), (int64_t)(hi[2] - lo[2] + 1));
   if (!error.empty()) throw io_error("mesh: " + error);
-  auto min_coord = openvdb::Coord((int)lo[0], (int)lo[1], (int)lo[2]);
-  auto grid = make_grid({(int)(hi[0] - lo[0] + 1), (int)(hi[1] - lo[1] + 1),
-                            (int)(hi[2] - lo[2] + 1)},
+  min_coord = openvdb::Coord((int)lo[0], (int)lo[1], (int)lo[2]);
+  return make_grid({(int)(hi[0] - lo[0] + 1), (int)(hi[1] - lo[1] + 1),
+                       (int)(hi[2] - lo[2] + 1)},
       voxel, vec3f{(float)lo[0], (float)lo[1], (float)lo[2]} * voxel, 0);
+}
 
+// OpenVDB's narrow-band distance field of the mesh (unsigned for a shell).
+// Exact distances in a narrow band only: OpenVDB grows the band in every
+// direction, not just inside our box, so a band as wide as the grid costs
+// minutes; the far samples get a distance bound (mesh_to_grid).
+static openvdb::FloatGrid::Ptr make_mesh_level_set(
+    const mesh_data& mesh, float voxel, bool shell) {
   init_openvdb();
   auto points = std::vector<openvdb::Vec3s>{};
   points.reserve(mesh.positions.size());
@@ -154,32 +156,28 @@ grid_data mesh_to_grid(
     triangles.emplace_back((unsigned)t.x, (unsigned)t.y, (unsigned)t.z);
   auto quads     = std::vector<openvdb::Vec4I>{};
   auto transform = openvdb::math::Transform::createLinearTransform(voxel);
-  // Exact distances in a narrow band only: OpenVDB grows the band in every
-  // direction, not just inside our box, so a band as wide as the grid costs
-  // minutes; the far samples get a distance bound below.
   auto band      = (float)grid_mesh_band;
-  auto level_set = openvdb::FloatGrid::Ptr{};
   try {
-    if (shell > 0) {
-      level_set =
-          openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(
-              *transform, points, triangles, quads, band);
-    } else {
-      level_set = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
-          *transform, points, triangles, quads, band, band);
-    }
+    if (shell)
+      return openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(
+          *transform, points, triangles, quads, band);
+    return openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
+        *transform, points, triangles, quads, band, band);
   } catch (const std::exception& e) {
     throw io_error(std::string("mesh: OpenVDB conversion failed: ") + e.what());
   }
+}
 
-  // Densify, one z slice per task (each with its own accessor). Active
-  // voxels are the band; the others hold +-background with the right sign.
-  auto& n     = grid.dims;
-  auto  count = grid.values.size();
-  auto  far   = std::vector<float>(count, 0);  // squared voxels to the band
+// Copy the level set into the grid, one z slice per task (each with its own
+// accessor). Active voxels are the band; the others hold +-background with
+// the right sign. Returns, per sample, 0 in the band and flt_max outside.
+static std::vector<float> densify_level_set(const openvdb::FloatGrid& level_set,
+    openvdb::Coord min_coord, grid_data& grid) {
+  auto& n   = grid.dims;
+  auto  far = std::vector<float>(grid.values.size(), 0);
   tbb::parallel_for(tbb::blocked_range<int>(0, n.z),
       [&](const tbb::blocked_range<int>& slices) {
-        auto accessor = level_set->getConstAccessor();
+        auto accessor = level_set.getConstAccessor();
         for (auto k = slices.begin(); k != slices.end(); k++) {
           auto index = (size_t)n.x * (size_t)n.y * (size_t)k;
           for (auto j = 0; j < n.y; j++) {
@@ -191,15 +189,30 @@ grid_data mesh_to_grid(
           }
         }
       });
-  distance_transform(far, n);
+  return far;
+}
+
+grid_data mesh_to_grid(
+    const mesh_data& mesh, float voxel, int padding, float shell) {
+  if (!(voxel > 0) || !std::isfinite(voxel))
+    throw io_error("mesh: voxel size " + std::to_string(voxel) +
+                   " must be positive and finite");
+  if (padding < 1) throw io_error("mesh: padding must be at least 1 voxel");
+  if (mesh.triangles.empty()) throw io_error("mesh: no triangles");
+  auto min_coord = openvdb::Coord{};
+  auto grid      = make_mesh_grid(mesh, voxel, padding, min_coord);
+  auto level_set = make_mesh_level_set(mesh, voxel, shell > 0);
+  // Squared voxels to the band.
+  auto far = densify_level_set(*level_set, min_coord, grid);
+  distance_transform(far, grid.dims);
   // Outside the band a lower bound: every sample with |d| < w is active
   // (OpenVDB keeps about w = band - 0.2 voxels; we assume band - 1). For p
   // outside, s its closest surface point and q on [p, s] with
   // |d(q)| = l < w - sqrt(3)/2 voxels, the sample c nearest to q is active,
   // so EDT(p) <= |p - c| <= |p - q| + sqrt(3)/2 = |d(p)| - l + sqrt(3)/2:
   // |d(p)| >= EDT(p) + w - sqrt(3) voxels (and >= w, being inactive).
-  auto width = (band - 1) * voxel;
-  for (auto i = size_t{0}; i < count; i++) {
+  auto width = ((float)grid_mesh_band - 1) * voxel;
+  for (auto i = size_t{0}; i < far.size(); i++) {
     if (far[i] == 0) {
       grid.values[i] -= shell;
       continue;

@@ -266,13 +266,15 @@ static std::string ply_place(const ply_reader& r) {
                  : "byte " + std::to_string(r.p - r.begin);
 }
 
-static mesh_data load_ply(const std::string& filename) {
-  auto file = mapped_file{filename};
-  auto text = std::string_view(file.data, file.size);
-  // Header, line by line.
-  auto elements   = std::vector<ply_element>{};
-  auto format     = std::string{};
-  auto line_no    = int64_t{0};
+// The PLY header: its elements and format; `text` is left at the body,
+// `line_no` at the header's last line.
+struct ply_header {
+  std::vector<ply_element> elements = {};
+  std::string              format   = "";
+};
+static ply_header parse_ply_header(
+    const std::string& filename, std::string_view& text, int64_t& line_no) {
+  auto header     = ply_header{};
   auto header_end = false;
   while (!text.empty() && !header_end) {
     auto end  = text.find('\n');
@@ -284,20 +286,20 @@ static mesh_data load_ply(const std::string& filename) {
       if (key != "ply")
         throw_line(filename, 1, "not a PLY file (no 'ply' magic)");
     } else if (key == "format") {
-      format = std::string(next_word(line));
-      if (format == "binary_big_endian")
+      header.format = std::string(next_word(line));
+      if (header.format == "binary_big_endian")
         throw_line(filename, line_no, "binary big endian PLY is not supported");
-      if (format != "ascii" && format != "binary_little_endian")
-        throw_line(filename, line_no, "unknown format '" + format + "'");
+      if (header.format != "ascii" && header.format != "binary_little_endian")
+        throw_line(filename, line_no, "unknown format '" + header.format + "'");
     } else if (key == "element") {
       auto element = ply_element{};
       element.name = std::string(next_word(line));
       if (!parse_token(next_word(line), element.count) || element.count < 0)
         throw_line(
             filename, line_no, "element " + element.name + ": bad count");
-      elements.push_back(element);
+      header.elements.push_back(element);
     } else if (key == "property") {
-      if (elements.empty())
+      if (header.elements.empty())
         throw_line(filename, line_no, "property before any element");
       auto property = ply_property{};
       auto type     = next_word(line);
@@ -311,7 +313,7 @@ static mesh_data load_ply(const std::string& filename) {
         throw_line(filename, line_no,
             "unknown property type '" + std::string(type) + "'");
       property.name = std::string(next_word(line));
-      elements.back().properties.push_back(property);
+      header.elements.back().properties.push_back(property);
     } else if (key == "end_header") {
       header_end = true;
     } else if (key != "comment" && key != "obj_info" && !key.empty()) {
@@ -320,84 +322,103 @@ static mesh_data load_ply(const std::string& filename) {
     }
   }
   if (!header_end) throw_io_error(filename, "PLY header has no end_header");
-  if (format.empty()) throw_io_error(filename, "PLY header has no format line");
+  if (header.format.empty())
+    throw_io_error(filename, "PLY header has no format line");
+  return header;
+}
 
-  auto r = ply_reader{filename, file.data, text.data(), file.data + file.size,
-      format == "ascii", line_no + 1};
-  auto mesh    = mesh_data{};
-  auto polygon = std::vector<int>{};
-  for (auto& element : elements) {
-    // Refuse counts the rest of the file can not hold before reserving.
-    auto min_size = int64_t{0};
-    for (auto& p : element.properties)
-      min_size += r.ascii ? 2 : ply_size(p.is_list ? p.count_type : p.type);
-    if (min_size > 0 && element.count > (r.end - r.p) / min_size + 1)
-      throw_io_error(filename, "element " + element.name + ": " +
-                                   std::to_string(element.count) +
-                                   " elements do not fit in the file");
-    // An element without properties takes no bytes, whatever its count (a
-    // count of 9e18 would otherwise loop for ever): there is nothing to read.
-    if (element.properties.empty()) continue;
-    auto is_vertex = element.name == "vertex", is_face = element.name == "face";
-    int  xyz[3]  = {-1, -1, -1};
-    auto indices = -1;
+// Read one list of element `e` (property `i`); a face's vertex indices
+// (i == indices) become a polygon of the mesh.
+static void read_ply_list(ply_reader& r, const ply_property& p, int64_t e,
+    bool indices, mesh_data& mesh, std::vector<int>& polygon) {
+  auto place = ply_place(r);
+  auto count = read_ply_value(r, p.count_type);
+  if (!(count >= 0) || count > (double)(r.end - r.p))
+    throw_io_error(r.filename, place + ": list length " +
+                                   std::to_string(count) +
+                                   " does not fit in the file");
+  if (indices) polygon.clear();
+  for (auto n = int64_t{0}; n < (int64_t)count; n++) {
+    auto value = read_ply_value(r, p.type);
+    if (!indices) continue;
+    if (!(value >= 0) || value >= (double)mesh.positions.size())
+      throw_io_error(r.filename, place + ": face " + std::to_string(e) +
+                                     ": vertex index " + std::to_string(value) +
+                                     " out of range");
+    polygon.push_back((int)value);
+  }
+  if (!indices) return;
+  if (polygon.size() < 3)
+    throw_io_error(r.filename,
+        place + ": face " + std::to_string(e) + ": fewer than 3 vertices");
+  add_polygon(mesh, polygon);
+}
+
+// Read the values of one element: vertices' x, y, z become positions,
+// faces' vertex indices polygons; other properties are skipped.
+static void read_ply_element(ply_reader& r, const ply_element& element,
+    mesh_data& mesh, std::vector<int>& polygon) {
+  auto& filename = r.filename;
+  // Refuse counts the rest of the file can not hold before reserving.
+  auto min_size = int64_t{0};
+  for (auto& p : element.properties)
+    min_size += r.ascii ? 2 : ply_size(p.is_list ? p.count_type : p.type);
+  if (min_size > 0 && element.count > (r.end - r.p) / min_size + 1)
+    throw_io_error(filename, "element " + element.name + ": " +
+                                 std::to_string(element.count) +
+                                 " elements do not fit in the file");
+  // An element without properties takes no bytes, whatever its count (a
+  // count of 9e18 would otherwise loop for ever): there is nothing to read.
+  if (element.properties.empty()) return;
+  auto is_vertex = element.name == "vertex", is_face = element.name == "face";
+  int  xyz[3]  = {-1, -1, -1};
+  auto indices = -1;
+  for (auto i = 0; i < (int)element.properties.size(); i++) {
+    auto& p = element.properties[i];
+    if (is_vertex && !p.is_list && p.name.size() == 1 && p.name[0] >= 'x' &&
+        p.name[0] <= 'z')
+      xyz[p.name[0] - 'x'] = i;
+    if (is_face && p.is_list &&
+        (p.name == "vertex_indices" || p.name == "vertex_index"))
+      indices = i;
+  }
+  if (is_vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
+    throw_io_error(filename, "vertex element has no x, y, z properties");
+  if (is_face && indices < 0)
+    throw_io_error(filename, "face element has no vertex_indices list");
+  if (is_vertex) mesh.positions.reserve((size_t)element.count);
+  for (auto e = int64_t{0}; e < element.count; e++) {
+    auto position = vec3f{};
     for (auto i = 0; i < (int)element.properties.size(); i++) {
       auto& p = element.properties[i];
-      if (is_vertex && !p.is_list && p.name.size() == 1 && p.name[0] >= 'x' &&
-          p.name[0] <= 'z')
-        xyz[p.name[0] - 'x'] = i;
-      if (is_face && p.is_list &&
-          (p.name == "vertex_indices" || p.name == "vertex_index"))
-        indices = i;
-    }
-    if (is_vertex && (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0))
-      throw_io_error(filename, "vertex element has no x, y, z properties");
-    if (is_face && indices < 0)
-      throw_io_error(filename, "face element has no vertex_indices list");
-    if (is_vertex) mesh.positions.reserve((size_t)element.count);
-    for (auto e = int64_t{0}; e < element.count; e++) {
-      auto position = vec3f{};
-      for (auto i = 0; i < (int)element.properties.size(); i++) {
-        auto& p = element.properties[i];
-        if (!p.is_list) {
-          auto value = read_ply_value(r, p.type);
-          if (i == xyz[0]) position.x = (float)value;
-          if (i == xyz[1]) position.y = (float)value;
-          if (i == xyz[2]) position.z = (float)value;
-          continue;
-        }
-        auto place = ply_place(r);
-        auto count = read_ply_value(r, p.count_type);
-        if (!(count >= 0) || count > (double)(r.end - r.p))
-          throw_io_error(filename, place + ": list length " +
-                                       std::to_string(count) +
-                                       " does not fit in the file");
-        if (i == indices) polygon.clear();
-        for (auto n = int64_t{0}; n < (int64_t)count; n++) {
-          auto value = read_ply_value(r, p.type);
-          if (i == indices) {
-            if (!(value >= 0) || value >= (double)mesh.positions.size())
-              throw_io_error(filename,
-                  place + ": face " + std::to_string(e) + ": vertex index " +
-                      std::to_string(value) + " out of range");
-            polygon.push_back((int)value);
-          }
-        }
-        if (i == indices) {
-          if (polygon.size() < 3)
-            throw_io_error(filename, place + ": face " + std::to_string(e) +
-                                         ": fewer than 3 vertices");
-          add_polygon(mesh, polygon);
-        }
+      if (p.is_list) {
+        read_ply_list(r, p, e, i == indices, mesh, polygon);
+        continue;
       }
-      if (is_vertex) {
-        if (!isfinite(position))
-          throw_io_error(filename, ply_place(r) + ": vertex " +
-                                       std::to_string(e) + " is not finite");
-        mesh.positions.push_back(position);
-      }
+      auto value = read_ply_value(r, p.type);
+      if (i == xyz[0]) position.x = (float)value;
+      if (i == xyz[1]) position.y = (float)value;
+      if (i == xyz[2]) position.z = (float)value;
     }
+    if (!is_vertex) continue;
+    if (!isfinite(position))
+      throw_io_error(filename,
+          ply_place(r) + ": vertex " + std::to_string(e) + " is not finite");
+    mesh.positions.push_back(position);
   }
+}
+
+static mesh_data load_ply(const std::string& filename) {
+  auto file    = mapped_file{filename};
+  auto text    = std::string_view(file.data, file.size);
+  auto line_no = int64_t{0};
+  auto header  = parse_ply_header(filename, text, line_no);
+  auto r = ply_reader{filename, file.data, text.data(), file.data + file.size,
+      header.format == "ascii", line_no + 1};
+  auto mesh    = mesh_data{};
+  auto polygon = std::vector<int>{};
+  for (auto& element : header.elements)
+    read_ply_element(r, element, mesh, polygon);
   return mesh;
 }
 

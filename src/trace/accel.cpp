@@ -40,17 +40,10 @@ static bbox3f field_box(const trace_object& object) {
 inline constexpr float box_padding_relative = 1e-6f;
 inline constexpr float box_padding_min      = 1e-8f;
 
-accel_data make_accel(
-    const scene_data& scene, accel_type type, const accel_params& params) {
-  if (params.linear_max < 0 || params.linear_max > linear_max_objects)
-    throw io_error(
-        "accel parameter linear_max: " + std::to_string(params.linear_max) +
-        " is out of range [0, " + std::to_string(linear_max_objects) + "]");
-  auto accel = accel_data{};
-  accel.type = type;
-  // Programs of the function objects, made into fields once the padding is
-  // known (at the end).
-  auto programs = std::vector<sdf_program>{};
+// One object per part of each function (the parts of a top-level union
+// when type is bvh); their programs go to `programs`, in the same order.
+static void add_function_objects(const scene_data& scene, accel_type type,
+    accel_data& accel, std::vector<sdf_program>& programs) {
   for (auto i = 0; i < (int)scene.sdfunctions.size(); i++) {
     auto& function = scene.sdfunctions[i];
     auto  parts    = type == accel_type::bvh
@@ -82,6 +75,11 @@ accel_data make_accel(
       programs.push_back(std::move(part));
     }
   }
+}
+
+// One object per grid instance and per user SDF.
+static void add_grid_and_user_objects(
+    const scene_data& scene, accel_data& accel) {
   for (auto i = 0; i < (int)scene.vol_instances.size(); i++) {
     auto& instance  = scene.vol_instances[i];
     auto  object    = trace_object{};
@@ -116,7 +114,12 @@ accel_data make_accel(
     object.distance_scale /= std::max(1.0f, user.lipschitz);
     accel.objects.push_back(object);
   }
-  // Scene size from the finite extents (planes are infinite along two axes).
+}
+
+// Scene size from the finite extents (planes are infinite along two axes),
+// the box padding, and each object's padding in local units (the world
+// padding times the largest stretch of local_from_world).
+static void set_scene_size(accel_data& accel) {
   for (auto& object : accel.objects) {
     accel.extent = merge(accel.extent, object.world_bounds);
     auto box     = object.world_bounds;
@@ -129,11 +132,56 @@ accel_data make_accel(
   accel.size =
       is_empty(accel.bounds) ? 1 : std::max(length(size(accel.bounds)), 1e-6f);
   accel.padding = box_padding_relative * accel.size + box_padding_min;
-  // Local boxes are padded by the world padding mapped to local units (the
-  // largest stretch of local_from_world).
-  auto padding = accel.padding;
   for (auto& object : accel.objects)
-    object.local_padding = padding * max_stretch(object.local_from_world);
+    object.local_padding = accel.padding * max_stretch(object.local_from_world);
+}
+
+// Objects with finite boxes go into the BVH's list (`bounded`, with their
+// padded boxes by axis), the others beside it; empty boxes (an
+// intersection of disjoint shapes) can never be hit.
+static void sort_objects_by_bounds(accel_data& accel) {
+  for (auto i = 0; i < (int)accel.objects.size(); i++) {
+    auto& box = accel.objects[i].world_bounds;
+    if (is_empty(box) || box.min.y > box.max.y || box.min.z > box.max.z)
+      continue;
+    if (is_finite(box)) {
+      accel.bounded.push_back(i);
+    } else {
+      accel.unbounded.push_back(i);
+    }
+  }
+  // Boxes padded in count to a multiple of 4 (whatever the padding holds
+  // is never read as an object: callers look at the first bounded.size()
+  // entries).
+  auto lanes = (accel.bounded.size() + 3) / 4 * 4;
+  for (auto a = 0; a < 3; a++) {
+    accel.bounded_min[a].assign(lanes, 0.0f);
+    accel.bounded_max[a].assign(lanes, 0.0f);
+  }
+  for (size_t k = 0; k < accel.bounded.size(); k++) {
+    auto box =
+        expand(accel.objects[accel.bounded[k]].world_bounds, accel.padding);
+    for (auto a = 0; a < 3; a++) {
+      accel.bounded_min[a][k] = at(box.min, a);
+      accel.bounded_max[a][k] = at(box.max, a);
+    }
+  }
+}
+
+accel_data make_accel(
+    const scene_data& scene, accel_type type, const accel_params& params) {
+  if (params.linear_max < 0 || params.linear_max > linear_max_objects)
+    throw io_error(
+        "accel parameter linear_max: " + std::to_string(params.linear_max) +
+        " is out of range [0, " + std::to_string(linear_max_objects) + "]");
+  auto accel = accel_data{};
+  accel.type = type;
+  // Programs of the function objects, made into fields once the padding is
+  // known.
+  auto programs = std::vector<sdf_program>{};
+  add_function_objects(scene, type, accel, programs);
+  add_grid_and_user_objects(scene, accel);
+  set_scene_size(accel);
   // Fields: pruned over the object's box (bvh), or the whole tree (none).
   for (auto k = 0; k < (int)programs.size(); k++) {
     auto& object    = accel.objects[k];
@@ -146,33 +194,7 @@ accel_data make_accel(
   }
   for (auto i = 0; i < (int)accel.objects.size(); i++)
     if (accel.objects[i].segments) accel.segmented.push_back(i);
-  // Objects with finite boxes go into the BVH, the others beside it; empty
-  // boxes (an intersection of disjoint shapes) can never be hit.
-  for (auto i = 0; i < (int)accel.objects.size(); i++) {
-    auto& box = accel.objects[i].world_bounds;
-    if (is_empty(box) || box.min.y > box.max.y || box.min.z > box.max.z)
-      continue;
-    if (is_finite(box)) {
-      accel.bounded.push_back(i);
-    } else {
-      accel.unbounded.push_back(i);
-    }
-  }
-  // Padded boxes by axis, padded in count to a multiple of 4 (whatever the
-  // padding holds is never read as an object: callers look at the first
-  // bounded.size() entries).
-  auto lanes = (accel.bounded.size() + 3) / 4 * 4;
-  for (auto a = 0; a < 3; a++) {
-    accel.bounded_min[a].assign(lanes, 0.0f);
-    accel.bounded_max[a].assign(lanes, 0.0f);
-  }
-  for (size_t k = 0; k < accel.bounded.size(); k++) {
-    auto box = expand(accel.objects[accel.bounded[k]].world_bounds, padding);
-    for (auto a = 0; a < 3; a++) {
-      accel.bounded_min[a][k] = at(box.min, a);
-      accel.bounded_max[a][k] = at(box.max, a);
-    }
-  }
+  sort_objects_by_bounds(accel);
   if (type == accel_type::bvh && (int)accel.bounded.size() > params.linear_max)
     accel.bvh = make_embree_bvh(accel);
   return accel;
