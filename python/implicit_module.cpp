@@ -785,6 +785,15 @@ void bind_scenes(py::module_& m) {
   m.def("render_option_help", &render_option_help);
   m.attr("shader_names")        = shader_type_names;
   m.attr("material_type_names") = material_type_names;
+  // (name, kind) of every material key: "color", "number" or "texture".
+  auto keys = py::list{};
+  for (auto& key : material_keys) {
+    auto kind = key.kind == material_key_kind::color    ? "color"
+                : key.kind == material_key_kind::number ? "number"
+                                                        : "texture";
+    keys.append(py::make_tuple(key.name, kind));
+  }
+  m.attr("material_keys") = keys;
 
   py::class_<py_renderer>(m, "Renderer")
       .def(py::init(&make_renderer), py::arg("scene"))

@@ -20,13 +20,10 @@ from .sdf import (SDF, UP, _frame12, _matrix, _non_negative, _number,
 
 MATERIAL_TYPES = tuple(_implicit.material_type_names)
 
-# Material keys: colours are 3 numbers, the rest single numbers; *_tex are
-# textures (a path or an index from add_texture).
-_MATERIAL_COLORS = ("emission", "color", "scattering")
-_MATERIAL_NUMBERS = ("metallic", "roughness", "ior", "trdepth",
-                     "scanisotropy", "opacity")
-_MATERIAL_TEXTURES = ("emission_tex", "color_tex", "roughness_tex",
-                      "scattering_tex", "normal_tex")
+# Material keys and their kinds, from the scene format's table
+# (src/scene/scene.h): a "color" is 3 numbers, a "number" one, a "texture"
+# a path or an index from add_texture.
+_MATERIAL_KEYS = dict(_implicit.material_keys)
 
 
 def _relative_expression_uris(sdfunctions, directory):
@@ -136,17 +133,16 @@ class Scene:
         if name is not None:
             material["name"] = str(name)
         for key, value in keys.items():
-            if key in _MATERIAL_COLORS:
+            kind = _MATERIAL_KEYS.get(key)
+            if kind == "color":
                 material[key] = [float(v) for v in _vec3(key, value)]
-            elif key in _MATERIAL_NUMBERS:
+            elif kind == "number":
                 material[key] = _number(key, value)
-            elif key in _MATERIAL_TEXTURES:
+            elif kind == "texture":
                 material[key] = self._texture(key, value)
             else:
-                raise TypeError(
-                    f"unknown material key {key!r} (keys: " +
-                    ", ".join(_MATERIAL_COLORS + _MATERIAL_NUMBERS +
-                              _MATERIAL_TEXTURES) + ")")
+                raise TypeError(f"unknown material key {key!r} (keys: " +
+                                ", ".join(_MATERIAL_KEYS) + ")")
         self.materials.append(material)
         return len(self.materials) - 1
 

@@ -71,6 +71,57 @@ struct material_data {
   int           normal_tex     = invalidid;
 };
 
+// The scene format's material keys besides name and type: one table that
+// the loader checks and reads and the Python module lists. Each key is a
+// colour (3 numbers), a number or a texture index, with its valid range.
+enum class material_key_kind { color, number, texture };
+enum class material_key_range {
+  any,
+  non_negative,
+  positive,
+  unit,           // [0, 1]
+  open_symmetric  // (-1, 1): Henyey-Greenstein's pdf is infinite at |g| = 1
+};
+struct material_key {
+  const char*        name      = "";
+  material_key_kind  kind      = material_key_kind::number;
+  material_key_range range     = material_key_range::any;
+  vec3f material_data::*color  = nullptr;  // kind color
+  float material_data::*number = nullptr;  // kind number
+  int material_data::*texture  = nullptr;  // kind texture
+};
+inline const std::vector<material_key> material_keys = {
+    {"emission", material_key_kind::color, material_key_range::non_negative,
+        &material_data::emission},
+    {"color", material_key_kind::color, material_key_range::non_negative,
+        &material_data::color},
+    {"metallic", material_key_kind::number, material_key_range::unit, nullptr,
+        &material_data::metallic},
+    {"roughness", material_key_kind::number, material_key_range::unit, nullptr,
+        &material_data::roughness},
+    {"ior", material_key_kind::number, material_key_range::positive, nullptr,
+        &material_data::ior},
+    {"trdepth", material_key_kind::number, material_key_range::positive,
+        nullptr, &material_data::trdepth},
+    {"scattering", material_key_kind::color, material_key_range::non_negative,
+        &material_data::scattering},
+    {"scanisotropy", material_key_kind::number,
+        material_key_range::open_symmetric, nullptr,
+        &material_data::scanisotropy},
+    {"opacity", material_key_kind::number, material_key_range::unit, nullptr,
+        &material_data::opacity},
+    {"emission_tex", material_key_kind::texture, material_key_range::any,
+        nullptr, nullptr, &material_data::emission_tex},
+    {"color_tex", material_key_kind::texture, material_key_range::any, nullptr,
+        nullptr, &material_data::color_tex},
+    {"roughness_tex", material_key_kind::texture, material_key_range::any,
+        nullptr, nullptr, &material_data::roughness_tex},
+    {"scattering_tex", material_key_kind::texture, material_key_range::any,
+        nullptr, nullptr, &material_data::scattering_tex},
+    {"normal_tex", material_key_kind::texture, material_key_range::any, nullptr,
+        nullptr, &material_data::normal_tex},
+};
+
 // Environment: emission times an optional lat-long texture.
 struct environment_data {
   std::string name         = "";

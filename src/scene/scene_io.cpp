@@ -216,49 +216,59 @@ static texture_data parse_texture(const json_place& place, const json& js) {
   return texture;
 }
 
+// Check a material number against its key's range.
+static void check_material_range(const json_place& place,
+    const std::string& key, material_key_range range, float value) {
+  switch (range) {
+    case material_key_range::any: break;
+    case material_key_range::non_negative:
+      check_non_negative(place, key, value);
+      break;
+    case material_key_range::positive: check_positive(place, key, value); break;
+    case material_key_range::unit: check_unit_range(place, key, value); break;
+    case material_key_range::open_symmetric:
+      if (!(std::abs(value) < 1))
+        throw_json_error(
+            place, key, "must be in (-1, 1), found " + format_number(value));
+      break;
+  }
+}
+
+// Colours: every component (the table gives them no other range).
+static void check_material_range(const json_place& place,
+    const std::string& key, material_key_range range, vec3f value) {
+  if (range == material_key_range::non_negative)
+    check_non_negative(place, key, value);
+  if (range == material_key_range::positive) check_positive(place, key, value);
+}
+
 static material_data parse_material(const json_place& place, const json& js,
     size_t num_textures, std::vector<std::string>& warnings) {
-  check_json_keys(place, js,
-      {"name", "type", "emission", "color", "metallic", "roughness", "ior",
-          "trdepth", "scattering", "scanisotropy", "opacity", "emission_tex",
-          "color_tex", "roughness_tex", "scattering_tex", "normal_tex"});
+  auto keys = std::vector<std::string>{"name", "type"};
+  for (auto& key : material_keys) keys.push_back(key.name);
+  check_json_keys(place, js, keys);
   auto material = material_data{};
   read_json(place, js, "name", material.name);
   auto type_name = std::string{};
   if (read_json(place, js, "type", type_name))
     material.type = (material_type)parse_json_enum(
         place, "type", type_name, material_type_names);
-  read_json(place, js, "emission", material.emission);
-  check_non_negative(place, "emission", material.emission);
-  read_json(place, js, "color", material.color);
-  check_non_negative(place, "color", material.color);
-  read_json(place, js, "metallic", material.metallic);
-  check_unit_range(place, "metallic", material.metallic);
-  read_json(place, js, "roughness", material.roughness);
-  check_unit_range(place, "roughness", material.roughness);
-  read_json(place, js, "ior", material.ior);
-  check_positive(place, "ior", material.ior);
-  read_json(place, js, "trdepth", material.trdepth);
-  check_positive(place, "trdepth", material.trdepth);
-  read_json(place, js, "scattering", material.scattering);
-  check_non_negative(place, "scattering", material.scattering);
-  // Henyey-Greenstein's pdf is infinite at |g| = 1.
-  read_json(place, js, "scanisotropy", material.scanisotropy);
-  if (!(std::abs(material.scanisotropy) < 1))
-    throw_json_error(place, "scanisotropy",
-        "must be in (-1, 1), found " + format_number(material.scanisotropy));
-  read_json(place, js, "opacity", material.opacity);
-  check_unit_range(place, "opacity", material.opacity);
-  material.emission_tex =
-      read_material_texture(place, js, "emission_tex", num_textures, warnings);
-  material.color_tex =
-      read_material_texture(place, js, "color_tex", num_textures, warnings);
-  material.roughness_tex =
-      read_material_texture(place, js, "roughness_tex", num_textures, warnings);
-  material.scattering_tex = read_material_texture(
-      place, js, "scattering_tex", num_textures, warnings);
-  material.normal_tex =
-      read_material_texture(place, js, "normal_tex", num_textures, warnings);
+  for (auto& key : material_keys) {
+    switch (key.kind) {
+      case material_key_kind::color:
+        read_json(place, js, key.name, material.*key.color);
+        check_material_range(place, key.name, key.range, material.*key.color);
+        break;
+      case material_key_kind::number:
+        read_json(place, js, key.name, material.*key.number);
+        check_material_range(place, key.name, key.range, material.*key.number);
+        break;
+      case material_key_kind::texture:
+        material.*key.texture =
+            read_material_texture(place, js, key.name, num_textures, warnings);
+        break;
+    }
+  }
   return material;
 }
 
