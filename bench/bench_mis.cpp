@@ -87,6 +87,75 @@ static double equal_samples_variance(
   return sum / m2.size();
 }
 
+// A MIS strategy and sampler to compare.
+struct mis_mode {
+  const char*  name;
+  bool         mis;
+  mis_type     type;
+  sampler_type sampler;
+};
+static const mis_mode mis_modes[] = {
+    {"MIS off (--noimplicitmis), random", false, mis_type::one_sample,
+        sampler_type::random},
+    {"one-sample MIS (--mis one), random", true, mis_type::one_sample,
+        sampler_type::random},
+    {"two-sample MIS (--mis two), random", true, mis_type::two_sample,
+        sampler_type::random},
+    {"one-sample MIS (--mis one), sobol", true, mis_type::one_sample,
+        sampler_type::sobol},
+    {"two-sample MIS (--mis two), sobol", true, mis_type::two_sample,
+        sampler_type::sobol}};
+
+static trace_params with_mode(trace_params params, const mis_mode& mode) {
+  params.implicit_mis = mode.mis;
+  params.mis          = mode.type;
+  params.sampler      = mode.sampler;
+  return params;
+}
+
+// Each mode for `seconds`: samples reached and RMSE against the reference.
+static void print_equal_time(const render_context& context,
+    const trace_params& params, const image_data& reference, double seconds) {
+  std::printf(
+      "| strategy, sampler | samples in %.0f s | RMSE | RMSE ratio to "
+      "one-sample random |\n",
+      seconds);
+  std::printf("|---|---|---|---|\n");
+  auto results = std::vector<std::pair<timed_render, double>>{};
+  for (auto& m : mis_modes) {
+    auto render = render_for(context, with_mode(params, m), seconds, 1 << 30);
+    results.push_back({render, rmse(render.image, reference)});
+  }
+  auto index = 0;
+  for (auto& m : mis_modes) {
+    auto& r = results[index++];
+    std::printf("| %s | %d | %.4f | %.2f |\n", m.name, r.first.samples,
+        r.second, r.second / results[1].second);
+  }
+}
+
+// Each mode's variance at `samples` spp over `runs` independent renders.
+static void print_equal_samples(const render_context& context,
+    const trace_params& params, int samples, int runs) {
+  std::printf(
+      "\nNoise at equal samples: %d spp, variance over %d independent "
+      "runs\n\n",
+      samples, runs);
+  std::printf(
+      "| strategy, sampler | variance (MSE) | MSE of one-sample random / "
+      "this |\n|---|---|---|\n");
+  auto variances = std::vector<double>{};
+  for (auto& m : mis_modes)
+    variances.push_back(
+        equal_samples_variance(context, with_mode(params, m), samples, runs));
+  auto index = 0;
+  for (auto& m : mis_modes) {
+    std::printf("| %s | %.3g | %.2f |\n", m.name, variances[index],
+        variances[1] / variances[index]);
+    index++;
+  }
+}
+
 int main(int argc, char** argv) {
   // Default: the seed's 07_sdfunction scene, as the issue asks.
   auto filename          = argc > 1 && argv[1][0] != '-'
@@ -139,60 +208,7 @@ int main(int argc, char** argv) {
       "one-sample random |\n",
       seconds);
   std::printf("|---|---|---|---|\n");
-  struct mode {
-    const char*  name;
-    bool         mis;
-    mis_type     type;
-    sampler_type sampler;
-  };
-  auto random = sampler_type::random, sobol = sampler_type::sobol;
-  auto modes   = {mode{"MIS off (--noimplicitmis), random", false,
-                    mis_type::one_sample, random},
-        mode{"one-sample MIS (--mis one), random", true, mis_type::one_sample,
-          random},
-        mode{"two-sample MIS (--mis two), random", true, mis_type::two_sample,
-          random},
-        mode{"one-sample MIS (--mis one), sobol", true, mis_type::one_sample,
-          sobol},
-        mode{"two-sample MIS (--mis two), sobol", true, mis_type::two_sample,
-          sobol}};
-  auto results = std::vector<std::pair<timed_render, double>>{};
-  for (auto& m : modes) {
-    auto p         = params;
-    p.implicit_mis = m.mis;
-    p.mis          = m.type;
-    p.sampler      = m.sampler;
-    auto render    = render_for(*context, p, seconds, 1 << 30);
-    results.push_back({render, rmse(render.image, reference.image)});
-  }
-  auto index = 0;
-  for (auto& m : modes) {
-    auto& r = results[index++];
-    std::printf("| %s | %d | %.4f | %.2f |\n", m.name, r.first.samples,
-        r.second, r.second / results[1].second);
-  }
-
-  std::printf(
-      "\nNoise at equal samples: %d spp, variance over %d independent "
-      "runs\n\n",
-      equal_samples, runs);
-  std::printf(
-      "| strategy, sampler | variance (MSE) | MSE of one-sample random / "
-      "this |\n|---|---|---|\n");
-  auto variances = std::vector<double>{};
-  for (auto& m : modes) {
-    auto p         = params;
-    p.implicit_mis = m.mis;
-    p.mis          = m.type;
-    p.sampler      = m.sampler;
-    variances.push_back(
-        equal_samples_variance(*context, p, equal_samples, runs));
-  }
-  index = 0;
-  for (auto& m : modes) {
-    std::printf("| %s | %.3g | %.2f |\n", m.name, variances[index],
-        variances[1] / variances[index]);
-    index++;
-  }
+  print_equal_time(*context, params, reference.image, seconds);
+  print_equal_samples(*context, params, equal_samples, runs);
   return 0;
 }

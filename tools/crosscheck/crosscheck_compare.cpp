@@ -228,6 +228,52 @@ static double relative_mse(const image_data& image, const image_data& ref,
   return sum / (3.0 * image.pixels.size());
 }
 
+// relmse: each image's relative MSE against the reference, and the mean.
+static void print_relative_mse(
+    const std::string& ref_file, const std::vector<std::string>& files) {
+  auto ref = load_image(ref_file);
+  auto sum = 0.0;
+  for (auto& filename : files) {
+    auto error = relative_mse(load_image(filename), ref, filename);
+    std::printf("%s %.6g\n", filename.c_str(), error);
+    sum += error;
+  }
+  std::printf("mean %.6g\n", sum / files.size());
+}
+
+// The comparison: one markdown row per region. rel = ours / ref - 1 on the
+// channel average; se = its standard error (both sides); z = rel / se;
+// worst = the channel with the largest |relative difference|.
+static void compare_regions(const std::string& mask_file,
+    const std::string& names_file, const std::string& case_name,
+    const std::vector<std::string>& ours_files,
+    const std::vector<std::string>& ref_files, const std::string& png_file) {
+  auto mask    = load_mask(mask_file);
+  auto names   = load_names(names_file);
+  auto ours    = load_renders(ours_files, mask);
+  auto ref     = load_renders(ref_files, mask);
+  auto regions = (int)names.size();
+  auto a       = compute_stats(ours, mask, regions);
+  auto b       = compute_stats(ref, mask, regions);
+  for (auto r = 0; r < regions; r++) {
+    auto [rel, se] = relative_difference(a, b, r, 3);
+    auto worst = 0.0, worst_se = 0.0;
+    for (auto c = 0; c < 3; c++) {
+      auto [rc, sec] = relative_difference(a, b, r, c);
+      if (std::abs(rc) > std::abs(worst)) worst = rc, worst_se = sec;
+    }
+    std::printf(
+        "| %-16s | %-10s | %5d | %.4f %.4f %.4f | %.4f %.4f %.4f | "
+        "%+6.2f%% | %5.2f%% | %+6.1f | %+6.2f%% ± %.2f%% |\n",
+        case_name.c_str(), names[r].c_str(), a.pixels[r], a.mean[r][0],
+        a.mean[r][1], a.mean[r][2], b.mean[r][0], b.mean[r][1], b.mean[r][2],
+        100 * rel, 100 * se, se > 0 ? rel / se : 0.0, 100 * worst,
+        100 * worst_se);
+  }
+  if (!png_file.empty())
+    save_side_by_side(png_file, average_images(ours), average_images(ref));
+}
+
 int main(int argc, const char** argv) {
   auto mask_file  = std::string{};
   auto names_file = std::string{};
@@ -254,68 +300,26 @@ int main(int argc, const char** argv) {
   relmse->add_option("--ref", relmse_ref, "Reference image")->required();
   relmse->add_option("images", relmse_inputs, "Images")->required();
   CLI11_PARSE(app, argc, argv);
-  if (relmse->parsed()) {
-    try {
-      auto ref = load_image(relmse_ref);
-      auto sum = 0.0;
-      for (auto& filename : relmse_inputs) {
-        auto error = relative_mse(load_image(filename), ref, filename);
-        std::printf("%s %.6g\n", filename.c_str(), error);
-        sum += error;
-      }
-      std::printf("mean %.6g\n", sum / relmse_inputs.size());
-    } catch (const io_error& error) {
-      std::fprintf(stderr, "%s\n", error.what());
+  if (!relmse->parsed() && !stack->parsed()) {
+    if (mask_file.empty() || names_file.empty()) {
+      std::fprintf(stderr, "--mask and --names are required\n");
       return 1;
     }
-    return 0;
-  }
-  if (stack->parsed()) {
-    try {
-      save_image(stack_output, stack_images(stack_inputs));
-    } catch (const io_error& error) {
-      std::fprintf(stderr, "%s\n", error.what());
+    if (ours_files.size() < 2 || ref_files.size() < 2) {
+      std::fprintf(
+          stderr, "need at least 2 renders per side for a standard error\n");
       return 1;
     }
-    return 0;
-  }
-  if (mask_file.empty() || names_file.empty()) {
-    std::fprintf(stderr, "--mask and --names are required\n");
-    return 1;
-  }
-  if (ours_files.size() < 2 || ref_files.size() < 2) {
-    std::fprintf(
-        stderr, "need at least 2 renders per side for a standard error\n");
-    return 1;
   }
   try {
-    auto mask    = load_mask(mask_file);
-    auto names   = load_names(names_file);
-    auto ours    = load_renders(ours_files, mask);
-    auto ref     = load_renders(ref_files, mask);
-    auto regions = (int)names.size();
-    auto a       = compute_stats(ours, mask, regions);
-    auto b       = compute_stats(ref, mask, regions);
-    // One markdown row per region. rel = ours / ref - 1 on the channel
-    // average; se = its standard error (both sides); z = rel / se;
-    // worst = the channel with the largest |relative difference|.
-    for (auto r = 0; r < regions; r++) {
-      auto [rel, se] = relative_difference(a, b, r, 3);
-      auto worst = 0.0, worst_se = 0.0;
-      for (auto c = 0; c < 3; c++) {
-        auto [rc, sec] = relative_difference(a, b, r, c);
-        if (std::abs(rc) > std::abs(worst)) worst = rc, worst_se = sec;
-      }
-      std::printf(
-          "| %-16s | %-10s | %5d | %.4f %.4f %.4f | %.4f %.4f %.4f | "
-          "%+6.2f%% | %5.2f%% | %+6.1f | %+6.2f%% ± %.2f%% |\n",
-          case_name.c_str(), names[r].c_str(), a.pixels[r], a.mean[r][0],
-          a.mean[r][1], a.mean[r][2], b.mean[r][0], b.mean[r][1], b.mean[r][2],
-          100 * rel, 100 * se, se > 0 ? rel / se : 0.0, 100 * worst,
-          100 * worst_se);
+    if (relmse->parsed()) {
+      print_relative_mse(relmse_ref, relmse_inputs);
+    } else if (stack->parsed()) {
+      save_image(stack_output, stack_images(stack_inputs));
+    } else {
+      compare_regions(
+          mask_file, names_file, case_name, ours_files, ref_files, png_file);
     }
-    if (!png_file.empty())
-      save_side_by_side(png_file, average_images(ours), average_images(ref));
   } catch (const io_error& error) {
     std::fprintf(stderr, "%s\n", error.what());
     return 1;
