@@ -197,6 +197,70 @@ TEST_CASE("sdf bounds: intervals hold every value in their box") {
   CHECK(nan_values > 0);  // the NaN rule was exercised
 }
 
+TEST_CASE("sdf bounds: moved primitives are bounded over their box") {
+  // Primitives that grow with each |coordinate| (or with y) are bounded by
+  // their values at the box's nearest and farthest points when a map only
+  // moves them; the others, and rotated ones, by the ball about the box.
+  auto rng     = make_rng(7);
+  auto types   = {sdf_type::sphere, sdf_type::cylinder, sdf_type::box,
+        sdf_type::rounded_box, sdf_type::plane, sdf_type::torus};
+  auto checked = 0;
+  for (auto type : types) {
+    for (auto trial = 0; trial < 40; trial++) {
+      auto node    = sdf_node{};
+      node.type    = type;
+      node.radius  = uniform(rng, 0.05f, 0.5f);
+      node.height  = uniform(rng, 0.05f, 1);
+      node.size    = uniform3(rng, 0.2f, 1.5f);
+      node.radius2 = uniform(rng, 0.02f, 0.05f);  // torus: the tube
+      auto program = sdf_program{};
+      auto shape   = add_node(program, node);
+      auto offset  = uniform3(rng, -1, 1);
+      auto moved   = trial % 2 == 0;
+      auto rotation =
+          moved ? frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, offset}
+                : frame3f{{0.8f, 0.6f, 0}, {-0.6f, 0.8f, 0}, {0, 0, 1}, offset};
+      add_transform(program, shape, rotation);
+      auto tape = make_sdf_tape(program);
+      for (auto b = 0; b < 8; b++) {
+        auto box   = random_box(rng);
+        auto range = eval_sdf_interval(tape, box);
+        for (auto k = 0; k < 32; k++) {
+          auto p = random_point(rng, box);
+          INFO("type ", (int)type, " trial ", trial, " box ", b);
+          CHECK(contains(range, eval_sdf(tape, p)));
+          checked++;
+        }
+      }
+    }
+  }
+  CHECK(checked == 6 * 40 * 8 * 32);
+  // Exact ranges where the ball's are wide: a thin cylinder beside a unit
+  // cube (the ball's lower end: 1 - 0.01 - 0.866 = 0.124), a sphere.
+  auto exact = [](sdf_node node, vec3f offset, const bbox3f& box) {
+    auto program = sdf_program{};
+    add_transform(program, add_node(program, node),
+        frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, offset});
+    return eval_sdf_interval(make_sdf_tape(program), box);
+  };
+  auto cylinder   = sdf_node{};
+  cylinder.type   = sdf_type::cylinder;
+  cylinder.radius = 0.01f;
+  cylinder.height = 0.5f;
+  auto range =
+      exact(cylinder, {0, 0, 0}, {{0.5f, -0.5f, -0.5f}, {1.5f, 0.5f, 0.5f}});
+  CHECK(range.lo == doctest::Approx(0.49f).epsilon(1e-3));
+  CHECK(
+      range.hi == doctest::Approx(std::sqrt(1.5f * 1.5f + 0.5f * 0.5f) - 0.01f)
+                      .epsilon(1e-3));
+  auto sphere   = sdf_node{};
+  sphere.type   = sdf_type::sphere;
+  sphere.radius = 0.5f;
+  range         = exact(sphere, {-1, 0, 0}, {{2, 0, 0}, {3, 1, 1}});
+  CHECK(range.lo == doctest::Approx(0.5f).epsilon(1e-3));
+  CHECK(range.hi == doctest::Approx(std::sqrt(6.0f) - 0.5f).epsilon(1e-3));
+}
+
 // Spheres of radius 0.2 every 1 along x, `count` copies each side (< 0:
 // all).
 sdf_program repeated_spheres(int count) {
