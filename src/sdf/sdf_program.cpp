@@ -302,6 +302,10 @@ static bbox3f warp_bounds(const sdf_node& node, const bbox3f& box) {
 // however many operands it has.
 bbox3f sdf_bounds(const sdf_program& program) {
   if (program.nodes.empty()) return {};
+  return sdf_node_bounds(program).back();
+}
+
+std::vector<bbox3f> sdf_node_bounds(const sdf_program& program) {
   auto bounds   = std::vector<bbox3f>(program.nodes.size());
   auto cores    = std::vector<bbox3f>(program.nodes.size());
   auto depths   = std::vector<float>(program.nodes.size(), 0);
@@ -358,7 +362,7 @@ bbox3f sdf_bounds(const sdf_program& program) {
         break;
     }
   }
-  return bounds.back();
+  return bounds;
 }
 
 // Whether a node keeps a distance bound a distance bound: primitives, CSG

@@ -201,6 +201,9 @@ sdf_param_problem check_primitive(const sdf_node& node);
 
 // Bounding box of the zero set, in local space. Unbounded axes are infinite.
 bbox3f sdf_bounds(const sdf_program& program);
+// The box of every node's zero set (empty for smooth unions absorbed into
+// a group: its root's box holds them); the last is sdf_bounds().
+std::vector<bbox3f> sdf_node_bounds(const sdf_program& program);
 // Lipschitz bound of the program (1 for exact distances): the largest of
 // its primitives' factors when the program is a distance bound (primitives,
 // CSG operators, transforms, elongate and mirror, which are 1-Lipschitz

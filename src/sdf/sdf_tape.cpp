@@ -292,6 +292,43 @@ struct walk_item {
   int       root  = invalidid;
 };
 
+// Morton codes of the centres of a group's operands' boxes, 10 bits an
+// axis over the box of those centres (non-finite centres last): sorted by
+// them, operands that lie close together come together in the tape, and so
+// do their nodes and maps in memory (sdf_tape::nodes and frames follow the
+// clauses), whatever the order of the scene's list. A group's value does
+// not depend on the order of its operands.
+std::vector<uint32_t> spatial_keys(
+    const std::vector<bbox3f>& bounds, const std::vector<int>& operands) {
+  auto centres = std::vector<vec3f>{};
+  auto extent  = bbox3f{};
+  for (auto k : operands) {
+    centres.push_back(center(bounds[k]));
+    if (isfinite(centres.back())) extent = merge(extent, centres.back());
+  }
+  auto spread = [](uint32_t v) {  // 10 bits to every third of 30
+    v = (v | (v << 16)) & 0x030000FFu;
+    v = (v | (v << 8)) & 0x0300F00Fu;
+    v = (v | (v << 4)) & 0x030C30C3u;
+    return (v | (v << 2)) & 0x09249249u;
+  };
+  auto keys = std::vector<uint32_t>{};
+  for (auto& c : centres) {
+    if (!isfinite(c)) {
+      keys.push_back(0xFFFFFFFFu);
+      continue;
+    }
+    auto key = 0u;
+    for (auto a = 0; a < 3; a++) {
+      auto lo = at(extent.min, a), hi = at(extent.max, a);
+      auto t = hi > lo ? (at(c, a) - lo) / (hi - lo) : 0.0f;
+      key |= spread((uint32_t)std::clamp(t * 1023.0f, 0.0f, 1023.0f)) << a;
+    }
+    keys.push_back(key);
+  }
+  return keys;
+}
+
 // Clauses in evaluation order: a post-order walk from the root with an
 // explicit stack, each node once (shared nodes are one clause), the operand
 // needing more registers first (Sethi and Ullman 1970: a tree of n leaves
@@ -306,6 +343,7 @@ void emit_clauses(tape_compiler& compiler) {
   auto  n           = (int)nodes.size();
   auto  need        = std::vector<int>(n, 1);
   auto  group       = std::vector<int>{};
+  auto  bounds      = std::vector<bbox3f>{};  // of every node, for groups
   compiler.absorbed = find_smooth_groups(compiler.program);
   for (auto i = 0; i < n; i++) {
     auto& node  = nodes[i];
@@ -343,8 +381,16 @@ void emit_clauses(tape_compiler& compiler) {
     if (item.step == walk_step::visit && is_group_root(compiler, index)) {
       stack.push_back({index, walk_step::emit});
       smooth_group_operands(compiler.program, compiler.absorbed, index, group);
-      std::stable_sort(group.begin(), group.end(),
-          [&](int a, int b) { return need[a] > need[b]; });
+      if (bounds.empty()) bounds = sdf_node_bounds(compiler.program);
+      auto keys  = spatial_keys(bounds, group);
+      auto order = std::vector<int>(group.size());
+      for (auto k = 0; k < (int)order.size(); k++) order[k] = k;
+      std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+        auto na = need[group[a]], nb = need[group[b]];
+        return na != nb ? na > nb : keys[a] < keys[b];
+      });
+      for (auto& k : order) k = group[k];
+      group = order;
       for (auto k = (int)group.size() - 1; k >= 0; k--) {
         stack.push_back({group[k], walk_step::add, index});
         stack.push_back({group[k]});
@@ -371,6 +417,36 @@ void emit_clauses(tape_compiler& compiler) {
                   invalidid, sdf_float_param(node.blend))
             : emit_node(compiler, index);
   }
+}
+
+// Renumber the maps in the order the clauses first use them (with the
+// sorted groups above: maps of operands close in space close in memory).
+void order_frames_by_use(sdf_tape& tape) {
+  auto count = (int)tape.frames.size();
+  auto index = std::vector<int>(count, invalidid);
+  auto order = std::vector<int>{};
+  auto use   = [&](int frame) {
+    if (frame < 0 || index[frame] >= 0) return;
+    index[frame] = (int)order.size();
+    order.push_back(frame);
+  };
+  for (auto& c : tape.ssa) {
+    if (c.op == sdf_op::map) use((int)c.param);
+    if (c.op == sdf_op::shape) use(tape.nodes[c.param].frame);
+  }
+  for (auto frame = 0; frame < count; frame++) use(frame);  // unused ones
+  auto frames    = std::vector<frame3f>(count);
+  auto stretches = std::vector<float>(count);
+  for (auto k = 0; k < count; k++) {
+    frames[k]    = tape.frames[order[k]];
+    stretches[k] = tape.stretches[order[k]];
+  }
+  tape.frames    = std::move(frames);
+  tape.stretches = std::move(stretches);
+  for (auto& c : tape.ssa)
+    if (c.op == sdf_op::map) c.param = (uint32_t)index[c.param];
+  for (auto& node : tape.nodes)
+    if (node.frame >= 0) node.frame = index[node.frame];
 }
 
 // Drop the clauses that nothing reads (the operands of folded constants),
@@ -416,6 +492,7 @@ sdf_tape make_sdf_tape(const sdf_program& program) {
     tape.ssa.push_back(last);
   }
   remove_dead_clauses(tape.ssa);
+  order_frames_by_use(tape);
   if (!allocate_sdf_registers(tape.ssa, tape.clauses))
     throw io_error("sdf program: needs more than " +
                    std::to_string(sdf_max_registers) + " values or " +

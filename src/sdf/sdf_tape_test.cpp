@@ -546,6 +546,49 @@ TEST_CASE("sdf tape: a smooth union group folds its sorted values") {
   for (auto& clause : pair.ssa) CHECK(clause.op != sdf_op::smooth_open);
 }
 
+TEST_CASE("sdf tape: a group's operands are ordered in space") {
+  // A 6 x 6 x 6 lattice of spheres listed in order and shuffled compiles to
+  // one tape: the same clauses, nodes and maps (a group's operands sorted by
+  // the Morton code of their boxes' centres, the maps by first use), so a
+  // shuffled list reads memory as the lattice does.
+  auto centres = std::vector<vec3f>{};
+  for (auto z = 0; z < 6; z++)
+    for (auto y = 0; y < 6; y++)
+      for (auto x = 0; x < 6; x++)
+        centres.push_back(vec3f{(float)x, (float)y, (float)z} * 0.5f);
+  auto order = std::vector<int>{};
+  for (auto i = 0; i < (int)centres.size(); i++) order.push_back(i);
+  auto shuffled = order;
+  auto rng      = make_rng(5);
+  for (auto i = (int)shuffled.size() - 1; i > 0; i--)
+    std::swap(shuffled[i], shuffled[std::min((int)(rand1f(rng) * (i + 1)), i)]);
+  auto a = make_sdf_tape(blob_program(centres, order, false));
+  auto b = make_sdf_tape(blob_program(centres, shuffled, false));
+  REQUIRE(a.ssa.size() == b.ssa.size());
+  for (size_t i = 0; i < a.ssa.size(); i++) {
+    CHECK(a.ssa[i].op == b.ssa[i].op);
+    CHECK(a.ssa[i].a == b.ssa[i].a);
+    CHECK(a.ssa[i].b == b.ssa[i].b);
+    CHECK(a.ssa[i].param == b.ssa[i].param);
+  }
+  REQUIRE(a.frames.size() == centres.size());
+  REQUIRE(b.frames.size() == centres.size());
+  for (size_t i = 0; i < a.frames.size(); i++) {
+    CHECK(a.frames[i].o == b.frames[i].o);
+    CHECK(a.nodes[i].frame == b.nodes[i].frame);
+  }
+  // Consecutive operands are neighbours: a Morton walk of the lattice moves
+  // one step (0.5) most of the time, never across the whole lattice.
+  auto steps = 0;
+  for (size_t i = 1; i < a.frames.size(); i++)
+    steps += length(a.frames[i].o - a.frames[i - 1].o) <= 0.5f + 1e-5f;
+  CHECK(steps >= (int)a.frames.size() / 2);
+  for (auto k = 0; k < 50; k++) {
+    auto p = vec3f{rand1f(rng), rand1f(rng), rand1f(rng)} * 3.0f;
+    CHECK(eval_sdf(a, p) == eval_sdf(b, p));
+  }
+}
+
 TEST_CASE("sdf tape: groups nested too deep are refused") {
   // Each group's first operand (the one needing most registers) is a
   // balanced union of 16 spheres, its second the group of another blend
