@@ -329,6 +329,21 @@ std::vector<uint32_t> spatial_keys(
   return keys;
 }
 
+// A group's operands: those needing more registers first, then in space
+// order (spatial_keys).
+void sort_group_operands(const std::vector<bbox3f>& bounds,
+    const std::vector<int>& need, std::vector<int>& group) {
+  auto keys  = spatial_keys(bounds, group);
+  auto order = std::vector<int>(group.size());
+  for (auto k = 0; k < (int)order.size(); k++) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    auto na = need[group[a]], nb = need[group[b]];
+    return na != nb ? na > nb : keys[a] < keys[b];
+  });
+  for (auto& k : order) k = group[k];
+  group = order;
+}
+
 // Clauses in evaluation order: a post-order walk from the root with an
 // explicit stack, each node once (shared nodes are one clause), the operand
 // needing more registers first (Sethi and Ullman 1970: a tree of n leaves
@@ -382,15 +397,7 @@ void emit_clauses(tape_compiler& compiler) {
       stack.push_back({index, walk_step::emit});
       smooth_group_operands(compiler.program, compiler.absorbed, index, group);
       if (bounds.empty()) bounds = sdf_node_bounds(compiler.program);
-      auto keys  = spatial_keys(bounds, group);
-      auto order = std::vector<int>(group.size());
-      for (auto k = 0; k < (int)order.size(); k++) order[k] = k;
-      std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-        auto na = need[group[a]], nb = need[group[b]];
-        return na != nb ? na > nb : keys[a] < keys[b];
-      });
-      for (auto& k : order) k = group[k];
-      group = order;
+      sort_group_operands(bounds, need, group);
       for (auto k = (int)group.size() - 1; k >= 0; k--) {
         stack.push_back({group[k], walk_step::add, index});
         stack.push_back({group[k]});
