@@ -108,7 +108,7 @@ struct field_ray {
     auto derivative = segment_one_side(range)
                           ? entire_interval
                           : leaf_derivative(*located, ray.d);
-    return {index, std::min(exit, whole.t_exit), range, derivative};
+    return {index, std::min(exit, whole.t_exit), range, derivative, false};
   }
 
   float value(int region, float t) const {

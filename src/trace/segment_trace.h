@@ -56,11 +56,17 @@ namespace implicit {
 // A stretch of the ray inside one region: the region's handle (what the
 // function evaluates with), where the ray leaves it, the range of the values
 // over it and the interval of df/dt along the ray there (entire if none).
+// `local_bounds`: whether a bound over a segment ahead may pay for itself
+// where the region's own slope bound steps short (segment_local_step): over
+// a long stretch (the whole tape) it saves many steps; an octree leaf's own
+// bound is the tape's over a small cell already, and a bound costs about 8
+// values (the gyroid lattice example: 1.8x faster without them in leaves).
 struct segment_region {
-  int      region     = invalidid;
-  float    t_exit     = 0;
-  interval range      = entire_interval;
-  interval derivative = entire_interval;
+  int      region       = invalidid;
+  float    t_exit       = 0;
+  interval range        = entire_interval;
+  interval derivative   = entire_interval;
+  bool     local_bounds = true;
 };
 
 // Range over a piece of the ray (the box of its ends), and the interval of
@@ -284,8 +290,8 @@ inline float segment_local_step(const Function& function, int region, float t,
 // bracketed, the stretch is done, or the budget or the cutoff ends the ray.
 template <typename Function>
 inline void segment_lipschitz(const Function& function, int region,
-    interval derivative, float a, float b, const march_params& params,
-    float hit_min, segment_state& state) {
+    interval derivative, bool local_bounds, float a, float b,
+    const march_params& params, float hit_min, segment_state& state) {
   auto rate = segment_approach(derivative, state.start_inside);
   auto t    = a;
   auto f    = 0.0f;
@@ -327,7 +333,7 @@ inline void segment_lipschitz(const Function& function, int region,
     if (decisive) {
       safe = segment_decisive_step(
           derivative, state.start_inside, f, b - t, epsilon);
-    } else {
+    } else if (local_bounds) {
       safe = segment_local_step(
           function, region, t, b, f, safe, epsilon, local, state, decisive);
     }
@@ -431,8 +437,10 @@ inline void segment_isolate(const Function& function, int region,
       continue;
     }
     if (segment_slope(bound.derivative) < flt_inf) {
-      segment_lipschitz(function, region, bound.derivative, piece.a, piece.b,
-          params, hit_min, state);
+      // A piece between jumps may be long: bounds ahead pay there (the
+      // repetition written with mod: 9.1 evaluations per ray, 17 without).
+      segment_lipschitz(function, region, bound.derivative, true, piece.a,
+          piece.b, params, hit_min, state);
       continue;
     }
     auto length = piece.b - piece.a;
@@ -531,8 +539,8 @@ inline march_result segment_trace(const Function& function, float t0, float t1,
         segment_skip(state, end, range.hi < 0 ? -range.hi : range.lo);
       }
     } else if (segment_slope(region.derivative) < flt_inf) {
-      segment_lipschitz(function, region.region, region.derivative, t, end,
-          params, hit_min, state);
+      segment_lipschitz(function, region.region, region.derivative,
+          region.local_bounds, t, end, params, hit_min, state);
     } else {
       segment_isolate(function, region.region, range, t, end,
           (t1 - t0) * segment_nan_fraction, params, hit_min, state);

@@ -33,6 +33,10 @@ struct closed_form_ray {
   ray3f  ray   = {};
   bbox3f box   = {};
   int    cells = 1;
+  // Whether regions let the march bound segments ahead (as the whole tape
+  // does; an octree's leaves do not), and the bounds over pieces asked.
+  bool        local_bounds = true;
+  mutable int bounds       = 0;
 
   bbox3f cell_box(int index) const {
     auto cell =
@@ -70,7 +74,7 @@ struct closed_form_ray {
       exit       = std::min(exit, (plane - at(ray.o, a)) / d);
     }
     auto bound = bound_box(b);
-    return {index, exit, bound.range, bound.derivative};
+    return {index, exit, bound.range, bound.derivative, local_bounds};
   }
   float value(int, float t) const {
     auto p = ray_point(ray, t);
@@ -84,6 +88,7 @@ struct closed_form_ray {
   }
   float         split(int, float, float) const { return flt_nan; }
   segment_bound bound(int, float t0, float t1) const {
+    bounds++;
     auto a = ray_point(ray, t0), b = ray_point(ray, t1);
     return bound_box({min(a, b), max(a, b)});
   }
@@ -127,7 +132,8 @@ bool dense_first_hit(const closed_form_ray<Shape>& f, float t0, float t1,
 template <class Shape>
 int count_disagreements(const Shape& shape, const bbox3f& box, int cells,
     int rays, std::string& first, int* max_evaluations = nullptr,
-    int* total_evaluations = nullptr) {
+    int* total_evaluations = nullptr, bool local_bounds = true,
+    int* bounds = nullptr) {
   auto rng    = make_rng(29);
   auto params = march_params{};
   auto extent = length(size(box));
@@ -149,7 +155,8 @@ int count_disagreements(const Shape& shape, const bbox3f& box, int cells,
                                      sin_theta * std::sin(phi), cos_theta};
     }
     auto ray = closed_form_ray<Shape>{shape,
-        ray3f{origin, normalize(target - origin), 0, flt_max}, box, cells};
+        ray3f{origin, normalize(target - origin), 0, flt_max}, box, cells,
+        local_bounds};
     auto t0 = 0.0f, t1 = 0.0f;
     if (!intersect_bbox(ray.ray, box, t0, t1)) continue;
     auto hit_min = 1e-6f * extent;
@@ -157,6 +164,7 @@ int count_disagreements(const Shape& shape, const bbox3f& box, int cells,
     if (max_evaluations)
       *max_evaluations = std::max(*max_evaluations, march.evaluations);
     if (total_evaluations) *total_evaluations += march.evaluations;
+    if (bounds) *bounds += ray.bounds;
     auto expected = 0.0f;
     auto hit      = dense_first_hit(ray, t0, t1, 20000, expected);
     auto agree =
@@ -221,6 +229,19 @@ struct exp_log_blend {
     };
     auto a = sphere(-0.4f, 0.5f), b = sphere(0.45f, 0.4f);
     return math_neg(math_log(math_exp(k(-8) * a) + math_exp(k(-8) * b))) / k(8);
+  }
+};
+
+// A gyroid sheet: |sin 4x cos 4y + sin 4y cos 4z + sin 4z cos 4x| - 0.3,
+// whose slope changes sign often along a ray.
+struct gyroid_sheet {
+  template <class V>
+  V operator()(const V& x, const V& y, const V& z) const {
+    auto k  = [&](float c) { return constant_like(x, c); };
+    auto sc = [&](const V& a, const V& b) {
+      return math_sin(k(4) * a) * math_cos(k(4) * b);
+    };
+    return math_abs(sc(x, y) + sc(y, z) + sc(z, x)) - k(0.3f);
   }
 };
 
@@ -320,6 +341,25 @@ TEST_CASE("segment trace: steps bound how fast f may move towards 0") {
   CHECK(segment_monotone(interval{-5, -2}, false));
   CHECK(!segment_monotone(interval{-5, 0}, false));
   CHECK(segment_monotone(interval{1, 2}, true));
+}
+
+TEST_CASE("segment trace: small regions march on their own bounds") {
+  // In an octree's leaves (segment_region::local_bounds false) the march
+  // steps by the region's own slope bound and asks no bound over a segment
+  // ahead (one costs about 8 values and rarely steps farther there: the
+  // gyroid lattice example 1.8x faster); it still finds every hit.
+  auto check = [](const auto& shape, const bbox3f& box) {
+    auto first       = std::string{};
+    auto leaf_bounds = 0, whole_bounds = 0;
+    CHECK(count_disagreements(shape, box, 16, 300, first, nullptr, nullptr,
+              false, &leaf_bounds) == 0);
+    CHECK(leaf_bounds == 0);
+    count_disagreements(
+        shape, box, 16, 300, first, nullptr, nullptr, true, &whole_bounds);
+    CHECK(whole_bounds > 0);
+  };
+  check(tangle_cube{}, tangle_box);
+  check(gyroid_sheet{}, unit_box);
 }
 
 TEST_CASE("segment trace: a surface ahead costs few evaluations") {
