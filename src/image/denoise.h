@@ -17,10 +17,15 @@
 //   from the pixel's (Sakai et al., "A Statistical Approach to Monte Carlo
 //   Denoising", SIGGRAPH Asia 2024), times the same feature weights.
 //
+// Every method filters the lighting: colour divided by albedo (plus a floor)
+// when there is an albedo, multiplied back after (texture demodulation, as
+// in Schied et al., "Spatiotemporal Variance-Guided Filtering", HPG 2017),
+// and lets a firefly pixel average with neighbours its features set apart.
+//
 // Every method: deterministic (the same output at any thread count), a
-// constant image stays constant, non-finite inputs are missing data (a
-// pixel whose colour is NaN or inf is filled from its neighbours and never
-// read by them), optional buffers may be empty.
+// constant image (colour and albedo) stays constant, non-finite inputs are
+// missing data (a pixel whose colour is NaN or inf is filled from its
+// neighbours and never read by them), optional buffers may be empty.
 #pragma once
 
 #include <string>
@@ -66,6 +71,12 @@ struct denoise_params {
   // A second, pickier strength for nlm (0: none): each window also runs
   // with it, and the per-pixel choice below picks among all runs.
   float low_strength = 0.5f;
+  // The filters see colour / (albedo + demodulate), the lighting, and the
+  // output is multiplied back (0: they see the colour).
+  float demodulate = 0.05f;
+  // A pixel whose variance is above outlier_ratio times the median of its
+  // neighbours' (a firefly) weighs its feature distances less (0: never).
+  float outlier_ratio = 4.0f;
   // Welch t-test: |mean_p - mean_q| <= threshold sqrt(var_p + var_q).
   float ttest_threshold = 2.0f;
   // Feature distances: a neighbour whose albedo differs by albedo_sigma
