@@ -209,9 +209,10 @@ static void save_strip(const std::string& path, int width, int height,
 
 // A denoiser variant: a method name, then ":key=value" settings: r radius,
 // p patch radius, k strength, o low strength, x outlier ratio, d demodulation
-// floor, t t-test threshold, a/n/z albedo, normal and depth sigmas, l ridge, s
-// selection radius, v=0 the halves' difference instead of the variance buffer
-// (e.g. "ttest:r=9:t=2.5", "nlm:d=0:x=0" without demodulation and outliers).
+// floor, b blend radius, t t-test threshold, a/n/z albedo, normal and depth
+// sigmas, l ridge, s selection radius, v=0 the halves' difference instead of
+// the variance buffer (e.g. "ttest:r=9:t=2.5", "nlm:d=0:x=0" without
+// demodulation and outliers).
 static denoise_params parse_variant(const std::string& text) {
   auto   parts = std::vector<std::string>{};
   size_t start = 0;
@@ -235,6 +236,8 @@ static denoise_params parse_variant(const std::string& text) {
       params.strength = (float)value;
     else if (key == "o")
       params.low_strength = (float)value;
+    else if (key == "b")
+      params.blend_radius = (int)value;
     else if (key == "x")
       params.outlier_ratio = (float)value;
     else if (key == "d")

@@ -924,20 +924,38 @@ std::vector<float> smoothed_sure(
 // "Adaptive Rendering with Non-Local Means Filtering", 2012), the first of
 // equal ones: a wide window where it averages away noise, a narrow one where
 // the wide one blurs (edges, curved shading), a low strength where colours
-// that differ within the noise still differ (glossy highlights).
-std::vector<vec3f> select_by_sure(
-    const guide_data& guide, const filtered_runs& runs) {
+// that differ within the noise still differ (glossy highlights); blended
+// over the picks around, so that the choice does not switch pixel by pixel
+// where two runs' estimates are close (Rousselle et al. filter their
+// selection map for the same reason).
+std::vector<vec3f> select_by_sure(const guide_data& guide,
+    const filtered_runs& runs, const denoise_params& params) {
   if (runs.size() == 1) return runs[0].color;
   auto sures = std::vector<std::vector<float>>{};
   for (auto& run : runs)
     sures.push_back(smoothed_sure(guide, run, sure_radius));
-  auto output = runs[0].color;
-  for (size_t i = 0; i < output.size(); i++) {
-    auto best = (size_t)0;
+  auto best = std::vector<int>(runs[0].color.size(), 0);
+  for (size_t i = 0; i < best.size(); i++)
     for (size_t run = 1; run < runs.size(); run++)
-      if (sures[run][i] < sures[best][i]) best = run;
-    output[i] = runs[best].color[i];
-  }
+      if (sures[run][i] < sures[best[i]][i]) best[i] = (int)run;
+  // Each run weighs the share of the pixels around that pick it: the pixel's
+  // own pick plus the mean difference, so a constant stays exact.
+  auto width = guide.width, height = guide.height,
+       r      = std::max(params.blend_radius, 0);
+  auto output = std::vector<vec3f>(best.size());
+  tbb::parallel_for(0, height, [&](int y) {
+    for (auto x = 0; x < width; x++) {
+      auto p    = (size_t)y * width + x;
+      auto own  = runs[best[p]].color[p];
+      auto diff = vec3f{0, 0, 0};
+      auto n    = 0;
+      for (auto j = std::max(y - r, 0); j <= std::min(y + r, height - 1); j++)
+        for (auto i = std::max(x - r, 0); i <= std::min(x + r, width - 1);
+             i++, n++)
+          diff += runs[best[(size_t)j * width + i]].color[p] - own;
+      output[p] = own + diff / (float)n;
+    }
+  });
   return output;
 }
 
@@ -952,15 +970,21 @@ std::vector<vec3f> denoise_image(
     const denoise_buffers& buffers, const denoise_params& params) {
   check_buffers(buffers);
   if (buffers.width == 0 || buffers.height == 0) return {};
-  if (params.radius < 0 || params.patch_radius < 0 || params.select_radius < 0)
+  if (params.radius < 0 || params.patch_radius < 0 ||
+      params.select_radius < 0 || params.blend_radius < 0)
     throw std::invalid_argument("denoise_image: negative radius");
   if (!(params.strength > 0) || !(params.low_strength >= 0))
     throw std::invalid_argument(
         "denoise_image: strength must be positive, low_strength at least 0");
+  if (!(params.demodulate >= 0) || !std::isfinite(params.demodulate) ||
+      !(params.outlier_ratio >= 0))
+    throw std::invalid_argument(
+        "denoise_image: demodulate and outlier_ratio must be at least 0");
   auto runs  = make_run_set(params);
   auto guide = make_guide(
       buffers, params, runs.radius(), std::max(params.patch_radius, 0));
-  auto denoised = select_by_sure(guide, run_filters(guide, params, runs));
+  auto denoised =
+      select_by_sure(guide, run_filters(guide, params, runs), params);
   // The filter's change, modulated again: a constant stays exactly constant.
   if (!guide.scale.empty())
     for (size_t i = 0; i < denoised.size(); i++)

@@ -90,6 +90,9 @@ struct denoise_params {
   // A second run with a window of this radius, and per pixel the run whose
   // error estimate (SURE) is lowest; 0 or radius: one window.
   int select_radius = 2;
+  // The runs are blended by their shares of the picks over (2 blend_radius +
+  // 1)^2 pixels (0: each pixel's own pick; README: relMSE 2-13% lower).
+  int blend_radius = 3;
 };
 
 // -----------------------------------------------------------------------------

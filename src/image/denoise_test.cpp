@@ -228,6 +228,23 @@ TEST_CASE("denoise: a noisy column does not lend its variance") {
   }
 }
 
+TEST_CASE("denoise: runs are blended by the picks around") {
+  // Where two runs' error estimates are close, the pick switches from pixel
+  // to pixel and leaves the runs' differences as noise; blending by the
+  // picks over 7x7 pixels smooths it (measured: nlm 1.30x, nfor 1.15x,
+  // ttest 1.03x lower relMSE).
+  auto render = make_synthetic(96, 72, 0.5f, 16, 17);
+  for (auto method : all_methods) {
+    auto params  = method_params(method);
+    auto blended = rel_mse(denoise_image(render.buffers, params), render.truth);
+    params.blend_radius = 0;
+    auto picked = rel_mse(denoise_image(render.buffers, params), render.truth);
+    INFO(denoise_method_names[(int)method], " picked ", picked, " blended ",
+        blended);
+    CHECK(blended * (method == denoise_method::ttest ? 1 : 1.1) < picked);
+  }
+}
+
 TEST_CASE("denoise: a texture is filtered as lighting times albedo") {
   // An albedo that changes at every pixel (a fine texture) under smooth
   // lighting: the albedo weights keep each pixel from its neighbours, so
@@ -425,6 +442,17 @@ TEST_CASE("denoise rejects buffers of the wrong size and bad strengths") {
   params.strength     = 1;
   params.low_strength = -1;
   CHECK_THROWS_AS(denoise_image(buffers, params), std::invalid_argument);
+  params.low_strength = 0;
+  params.blend_radius = -1;
+  CHECK_THROWS_AS(denoise_image(buffers, params), std::invalid_argument);
+  params.blend_radius = 0;
+  params.demodulate   = std::numeric_limits<float>::quiet_NaN();
+  CHECK_THROWS_AS(denoise_image(buffers, params), std::invalid_argument);
+  params.demodulate    = 0;
+  params.outlier_ratio = -1;
+  CHECK_THROWS_AS(denoise_image(buffers, params), std::invalid_argument);
+  params.outlier_ratio = 0;
+  CHECK_NOTHROW(denoise_image(buffers, params));
   CHECK(parse_denoise_method("nlm") == denoise_method::nlm);
   CHECK_THROWS_AS(parse_denoise_method("oidn"), std::invalid_argument);
 }
