@@ -6,8 +6,8 @@
 // weights, or a t-test times feature weights); the filters accumulate what they
 // need from the weights (a weighted mean, or the moments of a first-order
 // regression). One visit serves several runs (two window sizes, and for nlm two
-// NL-means strengths); per pixel, the run whose SURE error estimate is lowest
-// wins.
+// NL-means strengths); each pixel blends the runs by their shares of the
+// pixels around whose SURE error estimate they minimise.
 //
 // The engine runs over blocks of rows in parallel, offset by offset, and
 // computes every weight from fixed coordinates only: each pixel sums its
@@ -82,7 +82,7 @@ struct guide_data {
   std::vector<vec3f>   half_a   = {};  // both halves empty or both filled
   std::vector<vec3f>   half_b   = {};
   std::vector<vec3f>   variance = {};  // of the full mean
-  std::vector<uint8_t> valid    = {};  // colour, halves, variance finite
+  std::vector<uint8_t> valid = {};  // colour, halves, variance, albedo finite
   // When demodulating, albedo + floor per pixel: colour, halves and variance
   // above are divided by it (variance by its square), and the colour before
   // that; both empty otherwise.
