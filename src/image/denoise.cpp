@@ -76,13 +76,14 @@ using padded_color = std::array<padded_plane, 3>;
 // estimated when absent and smoothed, features in units of their sigma;
 // then the same as padded planes for the filters.
 struct guide_data {
-  int                  width    = 0;
-  int                  height   = 0;
-  std::vector<vec3f>   color    = {};
-  std::vector<vec3f>   half_a   = {};  // both halves empty or both filled
-  std::vector<vec3f>   half_b   = {};
-  std::vector<vec3f>   variance = {};  // of the full mean
-  std::vector<uint8_t> valid = {};  // colour, halves, variance, albedo finite
+  int                width    = 0;
+  int                height   = 0;
+  std::vector<vec3f> color    = {};
+  std::vector<vec3f> half_a   = {};  // both halves empty or both filled
+  std::vector<vec3f> half_b   = {};
+  std::vector<vec3f> variance = {};  // of the full mean
+  // 1 where colour, halves, variance and albedo are finite.
+  std::vector<uint8_t> valid = {};
   // When demodulating, albedo + floor per pixel: colour, halves and variance
   // above are divided by it (variance by its square), and the colour before
   // that; both empty otherwise.
