@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <utility>
 
 #include "../math/random.h"
 
@@ -132,6 +133,18 @@ static denoise_params method_params(denoise_method method) {
   return params;
 }
 
+// relMSE of a method's defaults, and of the same with `setting` at 0.
+template <typename T>
+static std::pair<double, double> rel_mse_with_and_without(
+    const synthetic_render& render, denoise_method method,
+    T denoise_params::*setting) {
+  auto params = method_params(method);
+  auto with   = rel_mse(denoise_image(render.buffers, params), render.truth);
+  params.*setting = 0;
+  auto without = rel_mse(denoise_image(render.buffers, params), render.truth);
+  return {with, without};
+}
+
 TEST_CASE("denoise lowers the relative MSE of a noisy render") {
   auto render = make_synthetic(96, 72, 0.5f, 16, 7);
   auto noisy  = rel_mse(render.buffers.color, render.truth);
@@ -235,10 +248,8 @@ TEST_CASE("denoise: runs are blended by the picks around") {
   // ttest 1.03x lower relMSE).
   auto render = make_synthetic(96, 72, 0.5f, 16, 17);
   for (auto method : all_methods) {
-    auto params  = method_params(method);
-    auto blended = rel_mse(denoise_image(render.buffers, params), render.truth);
-    params.blend_radius = 0;
-    auto picked = rel_mse(denoise_image(render.buffers, params), render.truth);
+    auto [blended, picked] =
+        rel_mse_with_and_without(render, method, &denoise_params::blend_radius);
     INFO(denoise_method_names[(int)method], " picked ", picked, " blended ",
         blended);
     CHECK(blended * (method == denoise_method::ttest ? 1 : 1.1) < picked);
@@ -258,11 +269,8 @@ TEST_CASE("denoise: a texture is filtered as lighting times albedo") {
         var    = 0.02f;
       });
   for (auto method : all_methods) {
-    auto params = method_params(method);
-    auto lighting =
-        rel_mse(denoise_image(render.buffers, params), render.truth);
-    params.demodulate = 0;
-    auto colour = rel_mse(denoise_image(render.buffers, params), render.truth);
+    auto [lighting, colour] =
+        rel_mse_with_and_without(render, method, &denoise_params::demodulate);
     INFO(denoise_method_names[(int)method], " colour ", colour, " lighting ",
         lighting);
     CHECK(lighting * (method == denoise_method::nlm ? 2 : 1.2) < colour);
