@@ -15,7 +15,10 @@
 //   which cannot pass a root (segment tracing, Galin et al. 2020, "Segment
 //   Tracing Using Local Lipschitz Bounds": the Lipschitz bound of the
 //   segment ahead, here of the region it lies in), and by at least the hit
-//   threshold, evaluating the end of each such forced step;
+//   threshold, evaluating the end of each such forced step; where the
+//   bound is loose and those steps would creep up to the surface, a
+//   bolder step whose end value, with the bound of how fast f may
+//   approach 0 backwards, proves it crossed no root (segment_bold_step);
 // - in a region without a finite bound (a jump, sqrt at 0, a possible NaN)
 //   the ray's interval is bisected with an explicit stack, nearest half
 //   first, and each piece is dropped when its range excludes 0, marched when
@@ -230,6 +233,24 @@ inline float segment_decisive_step(interval derivative, bool start_inside,
   return std::min(ahead, std::max(std::abs(f) / least, epsilon));
 }
 
+// A bolder step than |f| / rate where f approaches the surface slowly
+// (a loose slope bound makes the march creep up to it, |f| shrinking by a
+// constant factor a step): where f falls at the rate `fall` / `gap` seen
+// over the last step, a step of s ends at |f| - fall / gap * s, which the
+// bound `back` (of how fast f may approach 0 backwards) proves root-free
+// back to the start's root-free |f| / rate while s < |f| (1 / rate + 1 /
+// back) / (1 + fall / gap / back). A tenth short of that, and of where
+// the line reaches 0 (curvature); 0 when f did not fall.
+inline float segment_bold_step(
+    float f, float gap, float fall, float rate, float back, bool inside) {
+  auto slope = (inside ? -fall : fall) / gap;
+  if (!(slope > 0) || !(rate > 0) || !(back > 0)) return 0;
+  auto size  = std::abs(f);
+  auto along = size / slope;
+  auto proof = size * (1 / rate + 1 / back) / (1 + slope / back);
+  return 0.9f * std::min(along, proof);
+}
+
 // Step from t where the region's slope bound allows `safe`: when that
 // covers little of the stretch to b, the bound over a segment ahead may
 // allow more. A segment serves the steps that start in it while they stay a
@@ -314,15 +335,16 @@ inline void segment_lipschitz(const Function& function, int region,
   // from both ends of the region; the organic model: 10.7 -> 9.0 values
   // per hit, 1.03 -> 0.86 per miss, 1.06x).
   auto reach = b, f_b = flt_nan;
+  auto back = segment_approach(derivative, !state.start_inside);
   if (!monotone && f == f && rate > 0 && std::abs(f) / rate < b - t) {
     f_b = function.value(region, b);
     state.evaluations++;
-    auto back = segment_approach(derivative, !state.start_inside);
     if (f_b == f_b && segment_inside(f_b) == state.start_inside) {
       reach = back > 0 ? b - std::abs(f_b) / back : -flt_inf;
       if (t + std::abs(f) / rate > reach) return segment_advance(state, b, f_b);
     }
   }
+  auto t_prev = flt_nan, f_prev = flt_nan;  // the last value before t
   while (t < b) {
     if (t > state.cutoff || state.evaluations >= state.max_evaluations) return;
     // |f| / rate (any step where f cannot approach 0); a NaN value (no
@@ -347,9 +369,27 @@ inline void segment_lipschitz(const Function& function, int region,
       return;
     }
     auto step = decisive ? safe : std::max(safe, epsilon);
+    auto bold = decisive ? 0.0f
+                         : segment_bold_step(f, t - t_prev, f_prev - f, rate,
+                               back, state.start_inside);
+    if (bold > step && t + bold < reach) {
+      // Verified from both ends: no root lies within |f| / rate after t
+      // nor within |f_n| / back before t + bold; where these cover the
+      // step, it crossed none.
+      auto f_n = function.value(region, t + bold);
+      state.evaluations++;
+      if (f_n == f_n && segment_inside(f_n) == state.start_inside &&
+          safe + std::abs(f_n) / back > bold) {
+        t_prev = t, f_prev = f;
+        t = t + bold, f = f_n;
+        segment_advance(state, t, f);
+        continue;
+      }
+    }
     auto next = std::min(t + step, b);
     if (next <= t) next = float_up(t, 1);
     if (segment_sample(function, region, next, state)) return;
+    t_prev = t, f_prev = f;
     t = next;
     f = state.last_f;
   }
