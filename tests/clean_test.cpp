@@ -127,6 +127,23 @@ TEST_CASE("clean: beside a .png each layer is an .exr of its own") {
         std::set<std::string>{"X", "Y", "Z"});
   CHECK(exr_channels((dir / "out.depth.exr").string()) ==
         std::set<std::string>{"Z"});
+  // They load back as images: the normal's X, Y and Z as R, G and B (an
+  // average of unit vectors where a surface was hit), the depth as grey.
+  auto normal = load_image((dir / "out.normal.exr").string());
+  auto depth  = load_image((dir / "out.depth.exr").string());
+  REQUIRE(normal.pixels.size() == depth.pixels.size());
+  auto unit = 0, hits = 0;
+  for (size_t i = 0; i < depth.pixels.size(); i++) {
+    auto n = normal.pixels[i], d = depth.pixels[i];
+    CHECK((d.x == d.y && d.y == d.z));
+    if (d.x <= 0) continue;
+    hits++;
+    auto size = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
+    CHECK(size <= 1.001f);
+    if (size > 0.999f) unit++;
+  }
+  CHECK(hits > 100);
+  CHECK(unit > hits / 2);
   CHECK(!fs::exists(dir / "out.albedo.exr"));
   // Batch images get theirs too.
   CHECK(fs::exists(dir / "out-s0001.depth.exr"));

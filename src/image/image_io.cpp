@@ -264,7 +264,9 @@ static void init_openexr() {
 }
 
 // Load an OpenEXR file as float RGBA. Missing colour channels read as 0 and
-// a missing alpha as 1; a luminance-only file (channel Y) is read as grey.
+// a missing alpha as 1. Without R, G and B: X, Y and Z (a vector, as the
+// normal and position AOVs this renderer writes) read as R, G and B; Y
+// alone (luminance) or Z alone (a depth AOV) as grey.
 static image_data load_exr(
     const std::string& filename, const uint8_t* data, size_t size) {
   init_openexr();
@@ -283,22 +285,27 @@ static image_data load_exr(
     auto  has      = [&](const char* name) {
       return channels.findChannel(name) != nullptr;
     };
-    auto grey = !has("R") && !has("G") && !has("B") && has("Y");
-    // Without any colour channel the image would silently read as black.
-    if (!has("R") && !has("G") && !has("B") && !has("Y")) {
+    auto names = std::vector<const char*>{};
+    if (has("R") || has("G") || has("B")) {
+      names = {"R", "G", "B"};
+    } else if (has("X")) {
+      names = {"X", "Y", "Z"};
+    } else if (has("Y") || has("Z")) {
+      names = {has("Y") ? "Y" : "Z"};
+    } else {
+      // Without any of them the image would silently read as black.
       auto found = std::string{};
       for (auto it = channels.begin(); it != channels.end(); ++it)
         found += (found.empty() ? "" : ", ") + std::string(it.name());
       throw_io_error(
-          filename, "no R, G, B or Y channel (found: " + found + ")");
+          filename, "no R, G, B, X, Y or Z channel (found: " + found + ")");
     }
+    auto grey = names.size() == 1;
     // The slices read straight into the interleaved vec4f pixels; OpenEXR
     // converts half/uint channels to float and fills absent ones.
     auto base    = (char*)image.pixels.data();
     auto xstride = sizeof(vec4f), ystride = sizeof(vec4f) * (size_t)width;
     auto buffer = Imf::FrameBuffer{};
-    auto names  = grey ? std::vector<const char*>{"Y"}
-                       : std::vector<const char*>{"R", "G", "B"};
     for (size_t c = 0; c < names.size(); c++) {
       buffer.insert(
           names[c], Imf::Slice::Make(Imf::FLOAT, base + c * sizeof(float),

@@ -255,12 +255,24 @@ TEST_CASE("image io exr channels") {
   image.pixels = {{0.5f, 0.25f, 0.125f, 0.75f}, {2, 3, 4, 5}};
   save_image(dir + "/rgba.exr", image);
   auto bytes = read_bytes(dir + "/rgba.exr");
-  // Luminance only (A, X, Y, Z: the old G is now Y): grey from Y.
-  write_bytes(dir + "/grey.exr", rename_exr_channels(bytes, "BGR", "XYZ"));
-  auto grey = load_image(dir + "/grey.exr");
-  REQUIRE(grey.pixels.size() == 2);
-  CHECK(equal_pixels(grey.pixels[0], {0.25f, 0.25f, 0.25f, 0.75f}));
-  CHECK(equal_pixels(grey.pixels[1], {3, 3, 3, 5}));
+  // A vector (A, X, Y, Z: the old B, G and R), as the normal and position
+  // AOVs: X, Y and Z read as R, G and B.
+  write_bytes(dir + "/vector.exr", rename_exr_channels(bytes, "BGR", "XYZ"));
+  auto vector = load_image(dir + "/vector.exr");
+  REQUIRE(vector.pixels.size() == 2);
+  CHECK(equal_pixels(vector.pixels[0], {0.125f, 0.25f, 0.5f, 0.75f}));
+  CHECK(equal_pixels(vector.pixels[1], {4, 3, 2, 5}));
+  // Luminance only (A, S, T, Y: the old R is now Y), or depth only (Z):
+  // grey from it.
+  for (auto name : {"Y", "Z"}) {
+    auto path = dir + "/grey" + name + ".exr";
+    write_bytes(
+        path, rename_exr_channels(bytes, "BGR", std::string("ST") + name));
+    auto grey = load_image(path);
+    REQUIRE(grey.pixels.size() == 2);
+    CHECK(equal_pixels(grey.pixels[0], {0.5f, 0.5f, 0.5f, 0.75f}));
+    CHECK(equal_pixels(grey.pixels[1], {2, 2, 2, 5}));
+  }
   // R missing but G and B there: the colour file reads R as 0, not grey.
   write_bytes(dir + "/no_red.exr", rename_exr_channels(bytes, "R", "Y"));
   auto no_red = load_image(dir + "/no_red.exr");
@@ -273,7 +285,7 @@ TEST_CASE("image io exr channels") {
   auto none = dir + "/none.exr";
   write_bytes(none, rename_exr_channels(bytes, "BGR", "STU"));
   CHECK(error_of([&] { load_image(none); }) ==
-        none + ": no R, G, B or Y channel (found: A, S, T, U)");
+        none + ": no R, G, B, X, Y or Z channel (found: A, S, T, U)");
 }
 
 TEST_CASE("image io save replaces an existing file") {
