@@ -248,6 +248,15 @@ TEST_CASE("render core: one validation refuses bad parameters") {
       render_samples(*context, params, camera, 0, 1, outside), io_error);
   CHECK_THROWS_AS(
       render_samples(*context, params, camera, 2, 1, tile), io_error);
+  // A buffer that only gathers finished tiles has no streams to render with.
+  auto layout    = buffer_layout{};
+  layout.streams = false;
+  auto gather    = make_render_buffer({0, 1, 0, 1}, 1, params.seed, layout);
+  CHECK(gather.sums.size() == 1);
+  CHECK(gather.rngs.empty());
+  CHECK(gather.evaluations.empty());
+  CHECK_THROWS_AS(
+      render_samples(*context, params, camera, 0, 1, gather), io_error);
 }
 
 TEST_CASE("render core: fallbacks for cameras and lights") {

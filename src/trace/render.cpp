@@ -133,13 +133,12 @@ buffer_layout render_layout(const trace_params& params) {
 
 render_buffer make_render_buffer(const render_rect& rect, int width,
     uint64_t seed, const buffer_layout& layout) {
-  auto buffer        = render_buffer{};
-  buffer.rect        = rect;
-  auto count         = rect_pixels(rect);
-  buffer.sums        = std::vector<vec4f>(count, {0, 0, 0, 0});
-  buffer.evaluations = std::vector<int64_t>(count, 0);
-  buffer.counts      = std::vector<int>(count, 0);
-  auto zero3         = vec3f{0, 0, 0};
+  auto buffer   = render_buffer{};
+  buffer.rect   = rect;
+  auto count    = rect_pixels(rect);
+  buffer.sums   = std::vector<vec4f>(count, {0, 0, 0, 0});
+  buffer.counts = std::vector<int>(count, 0);
+  auto zero3    = vec3f{0, 0, 0};
   if (layout.statistics) {
     buffer.squares.assign(count, zero3);
     buffer.evens.assign(count, zero3);
@@ -148,6 +147,8 @@ render_buffer make_render_buffer(const render_rect& rect, int width,
   if (layout.normal) buffer.normals.assign(count, zero3);
   if (layout.depth || layout.position) buffer.depths.assign(count, {0, 0});
   if (layout.position) buffer.positions.assign(count, zero3);
+  if (!layout.streams) return buffer;
+  buffer.evaluations.assign(count, 0);
   buffer.rngs.reserve(count);
   for (auto j = rect.y0; j < rect.y1; j++)
     for (auto i = rect.x0; i < rect.x1; i++)

@@ -90,6 +90,10 @@ struct buffer_layout {
   bool normal     = false;
   bool depth      = false;  // depth and hit counts
   bool position   = false;  // positions (and depth, for the hit counts)
+  // Each pixel's random stream and evaluation count: a buffer rendered into
+  // needs them, one that only gathers finished tiles (a frame's, whose
+  // tiles bring their streams) does not.
+  bool streams = true;
 };
 
 // The layout the parameters' AOVs need.

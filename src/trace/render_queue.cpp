@@ -256,8 +256,11 @@ static void activate_frames(render_queue& queue) {
          (int)queue.active.size() < plan.active_frames) {
     auto  frame = plan.frames[queue.next_frame++];
     auto& job   = queue.active[frame];
-    job.buffer = make_render_buffer({0, plan.width, 0, plan.height}, plan.width,
-        queue.params.seed, render_layout(queue.params));
+    // The frame gathers its tiles, which bring their pixels' streams.
+    auto layout    = render_layout(queue.params);
+    layout.streams = false;
+    job.buffer     = make_render_buffer(
+            {0, plan.width, 0, plan.height}, plan.width, queue.params.seed, layout);
     job.tiles_done.assign(plan.batches.size(), 0);
     job.start   = std::chrono::steady_clock::now();
     job.pending = (int)plan.tiles.size();

@@ -240,7 +240,9 @@ inline float segment_decisive_step(interval derivative, bool start_inside,
 // bound `back` (of how fast f may approach 0 backwards) proves root-free
 // back to the start's root-free |f| / rate while s < |f| (1 / rate + 1 /
 // back) / (1 + fall / gap / back). A tenth short of that, and of where
-// the line reaches 0 (curvature); 0 when f did not fall.
+// the line reaches 0 (curvature); 0 when f did not fall. Balint and
+// Valasek's planar step of sphere tracing (sphere_trace.h), with the
+// signed rates of a region instead of a Lipschitz constant.
 inline float segment_bold_step(
     float f, float gap, float fall, float rate, float back, bool inside) {
   auto slope = (inside ? -fall : fall) / gap;
