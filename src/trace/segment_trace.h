@@ -235,8 +235,9 @@ inline float segment_decisive_step(interval derivative, bool start_inside,
 
 // A bolder step than |f| / rate where f approaches the surface slowly
 // (a loose slope bound makes the march creep up to it, |f| shrinking by a
-// constant factor a step): where f falls at the rate `fall` / `gap` seen
-// over the last step, a step of s ends at |f| - fall / gap * s, which the
+// constant factor a step): where |f| falls at the rate `fall` / `gap` seen
+// over the last step (fall = f before minus f now, negated `inside`, where
+// f < 0 rises), a step of s ends at |f| - fall / gap * s, which the
 // bound `back` (of how fast f may approach 0 backwards) proves root-free
 // back to the start's root-free |f| / rate while s < |f| (1 / rate + 1 /
 // back) / (1 + fall / gap / back). A tenth short of that, and of where
