@@ -36,6 +36,13 @@ namespace {
 constexpr int max_features = 7;
 // Rows per parallel task.
 constexpr int block_rows = 8;
+
+// The denoiser's loops along a row, compiled twice: for AVX2 (8 floats a
+// vector) and for the baseline x86-64 (SSE2, 4); the loader picks one for
+// the CPU (GCC's and Clang's target_clones, which take no templates). Each
+// loop works element by element and AVX2 alone brings no fused
+// multiply-add, so both give the same floats.
+#define IMPLICIT_WIDE_LOOPS __attribute__((target_clones("avx2", "default")))
 // SURE estimates are averaged over (2 sure_radius + 1)^2 pixels.
 constexpr int sure_radius = 3;
 // A depth this many times the farthest hit stands for "no hit".
@@ -451,9 +458,9 @@ inline float welch_excess(float diff, float a, float b, float eps, float t2) {
 // width + patch): the NL-means distance averaged over channels, or for the
 // t-test 0 when Welch's test keeps b and 1e30 when it rejects b. Pairs with
 // a missing pixel: 0. One statement per channel: the loops vectorise.
-void color_distances(const guide_data& guide, const weight_guide& source,
-    const denoise_params& params, int ya, int yb, int dx, int patch,
-    float* distances) {
+IMPLICIT_WIDE_LOOPS void color_distances(const guide_data& guide,
+    const weight_guide& source, const denoise_params& params, int ya, int yb,
+    int dx, int patch, float* distances) {
   auto& color = *source.color;
   auto& var   = guide.variance_planes;
   auto  s     = source.variance_scale;
@@ -489,8 +496,8 @@ void color_distances(const guide_data& guide, const weight_guide& source,
 // Add the squared feature distances of pixels (x, y) and (x + dx, y + dy)
 // to distance[x] for x in [x0, x1); log depth relative to the plane through
 // (x, y) (its gradient), so that slanted surfaces are one surface.
-void add_feature_distances(const guide_data& guide, int y, int dx, int dy,
-    int x0, int x1, float* distance) {
+IMPLICIT_WIDE_LOOPS void add_feature_distances(const guide_data& guide, int y,
+    int dx, int dy, int x0, int x1, float* distance) {
   auto plain = guide.has_depth ? guide.nfeatures - 1 : guide.nfeatures;
   for (auto k = 0; k < plain; k++) {
     auto fp = guide.feature_planes[k].row(y);
@@ -545,6 +552,38 @@ run_set make_run_set(const denoise_params& params) {
   return runs;
 }
 
+// sums[x] = pixel[x] + ... + pixel[x + 2 patch]: a row's patch sums.
+IMPLICIT_WIDE_LOOPS void patch_row_sums(
+    const float* pixel, int width, int patch, float* sums) {
+  for (auto x = 0; x < width; x++) sums[x] = pixel[x];
+  for (auto k = 1; k <= 2 * patch; k++)
+    for (auto x = 0; x < width; x++) sums[x] += pixel[x + k];
+}
+
+// colour[x] for x in [x0, x1): the mean of the 2 patch + 1 rows of patch
+// sums from `sums` (rows of `width`), at least 0.
+IMPLICIT_WIDE_LOOPS void patch_column_sums(const float* sums, int width,
+    int patch, int x0, int x1, float area, float* colour) {
+  for (auto x = x0; x < x1; x++) colour[x] = sums[x];
+  for (auto k = 1; k <= 2 * patch; k++)
+    for (auto x = x0; x < x1; x++) colour[x] += sums[k * width + x];
+  for (auto x = x0; x < x1; x++) colour[x] = std::max(colour[x] * area, 0.0f);
+}
+
+// The weights w[x] for x in [x0, x1) of pixel (x + dx, y + dy) for pixel
+// (x, y) from their colour and feature distances, 0 for a missing one.
+IMPLICIT_WIDE_LOOPS void distance_weights(const guide_data& guide, int y,
+    int dx, int dy, int x0, int x1, float inv_k2, const float* colour,
+    const float* features, float* w) {
+  auto valid = guide.valid_plane.row(y + dy) + dx;
+  auto trust = guide.trust.row(y);
+  // Clamped in a loop of its own: a min beside the exponential stops GCC
+  // from vectorising.
+  for (auto x = x0; x < x1; x++)
+    w[x] = std::min(colour[x] * inv_k2 + features[x] * trust[x], max_distance);
+  for (auto x = x0; x < x1; x++) w[x] = exp_negative(w[x]) * valid[x];
+}
+
 // Calls visit(y, dx, dy, weights) for every row y of [y0, y1) and every
 // offset (dx, dy) of the widest window, in a fixed order; weights[s][x] is
 // the weight with strength s of pixel (x + dx, y + dy) for pixel (x, y), 0
@@ -573,35 +612,20 @@ void visit_weights(const guide_data& guide, const weight_guide& source,
         auto ya = y0 - patch + row;
         color_distances(
             guide, source, params, ya, ya + dy, dx, patch, pixel.data());
-        auto sums = &row_sums[(size_t)row * width];
-        for (auto x = 0; x < width; x++) sums[x] = pixel[x];
-        for (auto k = 1; k <= 2 * patch; k++)
-          for (auto x = 0; x < width; x++) sums[x] += pixel[x + k];
+        patch_row_sums(
+            pixel.data(), width, patch, &row_sums[(size_t)row * width]);
       }
       auto x0 = std::max(0, -dx), x1 = std::min(width, width - dx);
       for (auto y = y0; y < y1; y++) {
         if (y + dy < 0 || y + dy >= height) continue;
-        auto sums = &row_sums[(size_t)(y - y0) * width];
-        for (auto x = x0; x < x1; x++) colour[x] = sums[x];
-        for (auto k = 1; k <= 2 * patch; k++)
-          for (auto x = x0; x < x1; x++) colour[x] += sums[k * width + x];
-        for (auto x = x0; x < x1; x++)
-          colour[x] = std::max(colour[x] * area, 0.0f);
+        patch_column_sums(&row_sums[(size_t)(y - y0) * width], width, patch, x0,
+            x1, area, colour.data());
         std::fill(features.begin(), features.end(), 0.0f);
         add_feature_distances(guide, y, dx, dy, x0, x1, features.data());
-        auto valid = guide.valid_plane.row(y + dy) + dx;
-        auto trust = guide.trust.row(y);
         std::fill(weights.begin(), weights.end(), 0.0f);
-        for (auto s = 0; s < runs.strengths; s++) {
-          auto w      = rows_of[s];
-          auto inv_k2 = runs.inv_k2[s];
-          // Clamped in a loop of its own: a min beside the exponential
-          // stops GCC from vectorising.
-          for (auto x = x0; x < x1; x++)
-            w[x] = std::min(
-                colour[x] * inv_k2 + features[x] * trust[x], max_distance);
-          for (auto x = x0; x < x1; x++) w[x] = exp_negative(w[x]) * valid[x];
-        }
+        for (auto s = 0; s < runs.strengths; s++)
+          distance_weights(guide, y, dx, dy, x0, x1, runs.inv_k2[s],
+              colour.data(), features.data(), rows_of[s]);
         visit(y, dx, dy, (const float* const*)rows_of);
       }
     }
@@ -627,6 +651,19 @@ using filtered_runs = std::vector<filtered_image>;
 filtered_runs make_filtered_runs(const run_set& runs, size_t pixels) {
   return filtered_runs(runs.count(),
       filtered_image{std::vector<vec3f>(pixels), std::vector<float>(pixels)});
+}
+
+// Add the weights w (a row of `width`) to sums[x] and the weighted
+// differences of the three channels to the rows `count` and 2 and 3 times
+// `count` after it.
+IMPLICIT_WIDE_LOOPS void add_weighted_differences(
+    const float* w, const float* diffs, int width, size_t count, float* sums) {
+  for (auto x = 0; x < width; x++) sums[x] += w[x];
+  for (auto c = 0; c < 3; c++) {
+    auto s = sums + (c + 1) * count;
+    auto d = diffs + (size_t)c * width;
+    for (auto x = 0; x < width; x++) s[x] += w[x] * d[x];
+  }
 }
 
 // Weighted mean of the neighbours of `values` with the weights of `source`,
@@ -655,14 +692,9 @@ filtered_runs filter_mean(const guide_data& guide,
           }
           for (auto run = 0; run < runs.count(); run++) {
             if (!runs.in_window(run, dx, dy)) continue;
-            auto w  = weights[run % runs.strengths];
-            auto sw = &sums[(size_t)run * 4 * count + (size_t)(y - y0) * width];
-            for (auto x = 0; x < width; x++) sw[x] += w[x];
-            for (auto c = 0; c < 3; c++) {
-              auto s = sw + (c + 1) * count;
-              auto d = &diffs[(size_t)c * width];
-              for (auto x = 0; x < width; x++) s[x] += w[x] * d[x];
-            }
+            add_weighted_differences(weights[run % runs.strengths],
+                diffs.data(), width, count,
+                &sums[(size_t)run * 4 * count + (size_t)(y - y0) * width]);
           }
         });
     for (auto run = 0; run < runs.count(); run++) {
@@ -766,7 +798,7 @@ vec3f solve_regression(const regression_layout& layout, const float* m,
 
 // The differences of one row of neighbours at offset (dx, dy) to their
 // pixels: x (nf rows of scratch) then y (3 rows).
-void regression_differences(const guide_data& guide,
+IMPLICIT_WIDE_LOOPS void regression_differences(const guide_data& guide,
     const regression_layout& layout, const padded_color& planes, int y, int dx,
     int dy, float* scratch) {
   auto width = guide.width, nf = layout.features;
@@ -784,8 +816,9 @@ void regression_differences(const guide_data& guide,
 
 // Add one row of neighbours, their differences in `scratch`
 // (regression_differences) and weights w, to the moments.
-void add_regression_row(const regression_layout& layout, int width,
-    const float* scratch, const float* w, float* moments, size_t stride) {
+IMPLICIT_WIDE_LOOPS void add_regression_row(const regression_layout& layout,
+    int width, const float* scratch, const float* w, float* moments,
+    size_t stride) {
   auto nf  = layout.features;
   auto add = [&](int j, const float* u) {
     auto m = moments + j * stride;
