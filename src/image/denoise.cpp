@@ -36,6 +36,10 @@ namespace {
 constexpr int max_features = 7;
 // Rows per parallel task.
 constexpr int block_rows = 8;
+// SURE estimates are averaged over (2 sure_radius + 1)^2 pixels.
+constexpr int sure_radius = 3;
+// A depth this many times the farthest hit stands for "no hit".
+constexpr float no_hit_depth_factor = 16;
 
 // The denoiser's loops along a row, compiled twice: for AVX2 (8 floats a
 // vector) and for the baseline x86-64 (SSE2, 4); the loader picks one for
@@ -43,10 +47,6 @@ constexpr int block_rows = 8;
 // loop works element by element and AVX2 alone brings no fused
 // multiply-add, so both give the same floats.
 #define IMPLICIT_WIDE_LOOPS __attribute__((target_clones("avx2", "default")))
-// SURE estimates are averaged over (2 sure_radius + 1)^2 pixels.
-constexpr int sure_radius = 3;
-// A depth this many times the farthest hit stands for "no hit".
-constexpr float no_hit_depth_factor = 16;
 
 // A float per pixel with `pad` replicated pixels around the image: windows
 // and patches near the border read clamped coordinates without tests, and
