@@ -374,6 +374,50 @@ static void check_scene_keys(const json_place& top, const json& js) {
   check_json_keys(top, js, valid);
 }
 
+// Where the elements that name files were read, to report their errors.
+struct scene_file_places {
+  std::vector<json_place> textures      = {};
+  std::vector<json_place> volumes       = {};
+  std::vector<bool>       volume_binary = {};  // a binary grid format
+};
+
+// Load the volumes' grids and the textures' images, relative to the scene's
+// directory, in parallel (each into its own element). Their errors are
+// wrapped with the element and key that named them; the first one in the
+// file's order is reported. Textures start first: a sky decodes to many
+// times its file's size.
+static void load_scene_files(scene_data& scene, const std::string& filename,
+    const scene_file_places& places) {
+  auto directory = std::filesystem::path(filename).parent_path();
+  auto volumes   = scene.volumes.size();
+  auto count     = volumes + scene.textures.size();
+  auto errors    = std::vector<std::string>(count);
+  auto failed    = std::vector<char>(count, 0);
+  tbb::parallel_for(size_t{0}, count, [&](size_t order) {
+    auto k = (order + volumes) % count;  // textures, then volumes
+    try {
+      if (k < volumes) {
+        auto& volume = scene.volumes[k];
+        auto format = grid_format_from_uri(volume.uri, places.volume_binary[k]);
+        volume.grid = std::make_shared<const grid_data>(
+            load_grid((directory / volume.uri).string(), format));
+      } else {
+        auto& texture = scene.textures[k - volumes];
+        texture.image = load_image((directory / texture.uri).string());
+      }
+    } catch (const io_error& error) {
+      errors[k] = error.what();
+      failed[k] = 1;
+    }
+  });
+  for (size_t k = 0; k < count; k++) {
+    if (!failed[k]) continue;
+    throw_json_error(
+        k < volumes ? places.volumes[k] : places.textures[k - volumes], "uri",
+        errors[k]);
+  }
+}
+
 scene_data parse_scene(const std::string& text, const std::string& filename,
     std::vector<std::string>& warnings, bool load_files, bool check_bounds) {
   auto js  = parse_json(text, filename);
@@ -390,15 +434,15 @@ scene_data parse_scene(const std::string& text, const std::string& filename,
   auto num_textures  = array_size(top, js, "textures");
   auto num_materials = array_size(top, js, "materials");
   auto num_volumes   = array_size(top, js, "volumes");
+  auto places        = scene_file_places{};
   parse_array(
       top, js, "cameras", [&](const json_place& place, const json& element) {
         scene.cameras.push_back(parse_camera(place, element));
       });
-  auto texture_places = std::vector<json_place>{};
   parse_array(
       top, js, "textures", [&](const json_place& place, const json& element) {
         scene.textures.push_back(parse_texture(place, element));
-        texture_places.push_back(place);
+        places.textures.push_back(place);
       });
   parse_array(
       top, js, "materials", [&](const json_place& place, const json& element) {
@@ -410,14 +454,12 @@ scene_data parse_scene(const std::string& text, const std::string& filename,
         scene.environments.push_back(
             parse_environment(place, element, num_textures));
       });
-  auto volume_places = std::vector<json_place>{};
-  auto volume_binary = std::vector<bool>{};
   parse_array(
       top, js, "volumes", [&](const json_place& place, const json& element) {
         auto binary = false;
         scene.volumes.push_back(parse_volume(place, element, binary));
-        volume_places.push_back(place);
-        volume_binary.push_back(binary);
+        places.volumes.push_back(place);
+        places.volume_binary.push_back(binary);
       });
   parse_array(top, js, "vol_instances",
       [&](const json_place& place, const json& element) {
@@ -434,40 +476,8 @@ scene_data parse_scene(const std::string& text, const std::string& filename,
         scene.sdfunctions.push_back(
             parse_sdfunction(place, element, num_materials, files));
       });
-  if (!load_files) return scene;
-
-  // Files last, relative to the scene's directory, loaded in parallel (each
-  // into its own element). Their errors are wrapped with the element and key
-  // that named them; the first one in the file's order is reported.
-  // Textures start first: a sky decodes to many times its file's size.
-  auto directory = std::filesystem::path(filename).parent_path();
-  auto volumes   = scene.volumes.size();
-  auto count     = volumes + scene.textures.size();
-  auto errors    = std::vector<std::string>(count);
-  auto failed    = std::vector<char>(count, 0);
-  tbb::parallel_for(size_t{0}, count, [&](size_t order) {
-    auto k = (order + volumes) % count;  // textures, then volumes
-    try {
-      if (k < volumes) {
-        auto& volume = scene.volumes[k];
-        auto  format = grid_format_from_uri(volume.uri, volume_binary[k]);
-        volume.grid  = std::make_shared<const grid_data>(
-            load_grid((directory / volume.uri).string(), format));
-      } else {
-        auto& texture = scene.textures[k - volumes];
-        texture.image = load_image((directory / texture.uri).string());
-      }
-    } catch (const io_error& error) {
-      errors[k] = error.what();
-      failed[k] = 1;
-    }
-  });
-  for (size_t k = 0; k < count; k++) {
-    if (!failed[k]) continue;
-    throw_json_error(
-        k < volumes ? volume_places[k] : texture_places[k - volumes], "uri",
-        errors[k]);
-  }
+  // Files last, once every element is known to be well formed.
+  if (load_files) load_scene_files(scene, filename, places);
   return scene;
 }
 

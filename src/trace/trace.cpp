@@ -423,6 +423,147 @@ static void update_volumes(path_state& path, const surface_point& point,
   }
 }
 
+// What every bounce of one path reads.
+struct path_context {
+  const scene_data&   scene;
+  const accel_data&   accel;
+  const lights_data&  lights;
+  const trace_params& params;
+  bool                use_lights = false;  // light sampling at all
+  bool                two_sample = false;  // two-sample MIS
+};
+
+// How a bounce ended: the path scattered (path.ray is the next ray), went
+// straight through an opacity hit (no bounce), or ends.
+enum class path_step { scatter, pass, stop };
+
+// Inside a medium: a free-flight distance before the surface the ray hit;
+// `isec.distance` becomes it, and `in_volume` tells whether it falls short
+// of the surface. False: the path ends (no pdf).
+static bool sample_free_flight(path_state& path, scene_intersection& isec,
+    path_sampler& sampler, bool& in_volume) {
+  auto& medium   = path.volumes.items[path.volumes.size - 1];
+  auto  rd       = next1f(sampler);
+  auto  rc       = next1f(sampler);
+  auto  distance = sample_transmittance(medium.density, isec.distance, rd, rc);
+  auto  pdf = sample_transmittance_pdf(medium.density, distance, isec.distance);
+  if (pdf <= 0) return false;
+  path.weight *= eval_transmittance(medium.density, distance) / pdf;
+  in_volume     = distance < isec.distance;
+  isec.distance = distance;
+  return true;
+}
+
+// A scattering point inside the innermost medium.
+static path_step shade_volume_point(const path_context& context,
+    path_state& path, float distance, bool last, pixel_sample& features,
+    path_sampler& sampler) {
+  if (!path.featured) {
+    features.albedo = path.volumes.items[path.volumes.size - 1].scattering;
+    path.featured   = true;
+  }
+  if (last) return path_step::stop;
+  auto position = ray_point(path.ray, distance);
+  return shade_medium(context.scene, context.accel, context.lights,
+             context.use_lights, path, position, sampler)
+             ? path_step::scatter
+             : path_step::stop;
+}
+
+// The first hit's features: position and depth of the first surface the
+// camera sees, albedo and normal of the first non-specular one.
+static void note_features(path_state& path, const surface_point& point,
+    const ray3f& camera_ray, int bounce, pixel_sample& features) {
+  if (bounce == 0 && !path.hit) {
+    path.hit          = true;
+    features.position = point.position;
+    features.depth    = distance(camera_ray.o, point.position);
+  }
+  if (!path.featured && !is_delta(point.material)) {
+    features.albedo = point.material.color;
+    features.normal = point.normal;
+    path.featured   = true;
+  }
+}
+
+// The next direction from a surface point by the strategy of its material
+// and the render's MIS; zero when the path ends.
+static vec3f scatter_surface(const path_context& context, path_state& path,
+    const surface_point& point, path_sampler& sampler, int64_t& evaluations) {
+  if (is_delta(point.material)) return shade_delta(path, point, sampler);
+  if (context.two_sample && path.volumes.size == 0) {
+    // Inside a medium, two-sample MIS gives way to the one-sample mixture
+    // (as shade_medium() does). A light sample from there would need the
+    // transmittance of the medium it starts in, which eval_light() does not
+    // know (it attenuates only the media it enters along its ray, and would
+    // take the boundary it leaves by for an entry), and it could not cross
+    // the refractive or subsurface boundary that closes most media (a delta
+    // interface blocks it). The mixture follows the light direction as the
+    // path itself, through free-flight sampling and the boundary, so it
+    // stays unbiased: emission reached that way takes weight 1 (bsdf_pdf =
+    // 0), the mixture pdf being already in the path weight.
+    return shade_two_sample(context.scene, context.accel, context.params.march,
+        context.lights, path, point, sampler, evaluations);
+  }
+  return shade_one_sample(context.scene, context.accel, context.lights,
+      context.use_lights, path, point, sampler);
+}
+
+// A surface hit: opacity, features, the emission it lands on, and the next
+// direction (none at the last bounce).
+static path_step shade_surface_hit(const path_context& context,
+    path_state& path, const scene_intersection& isec, const ray3f& camera_ray,
+    int bounce, bool last, pixel_sample& features, path_sampler& sampler,
+    int64_t& evaluations) {
+  auto& scene = context.scene;
+  auto& accel = context.accel;
+  auto& march = context.params.march;
+  // The last bounce needs neither the normal nor the textures of a surface
+  // without emission that light can not pass (once the features are known:
+  // the first hit of a path with one bounce gives them).
+  if (last && path.featured &&
+      blocks_without_emission(scene, accel.objects[isec.object]))
+    return path_step::stop;
+  auto  point    = eval_surface(scene, accel, path.ray, isec);
+  auto  outgoing = -path.ray.d;
+  auto& material = point.material;
+  // Opacity: continue straight through (bounded, as Yocto does).
+  if (material.opacity < 1) {
+    auto ro = next1f(sampler);
+    if (ro >= material.opacity) {
+      if (path.opacity_skips++ > max_opacity_skips) return path_step::stop;
+      path.ray = spawn_ray(accel, march, point, path.ray.d);
+      return path_step::pass;
+    }
+  }
+  note_features(path, point, camera_ray, bounce, features);
+  // Most surfaces emit nothing: their MIS weight (a light pdf over every
+  // light) is not needed.
+  auto emission = eval_emission(material, point.normal, outgoing);
+  auto mis      = emission == vec3f{0, 0, 0}
+                      ? 1.0f
+                      : emission_weight(scene, accel, context.lights, path,
+                            isec.object, path.ray.d);
+  path.radiance += path.weight * emission * mis;
+  if (last) return path_step::stop;
+  auto incoming = scatter_surface(context, path, point, sampler, evaluations);
+  if (incoming == vec3f{0, 0, 0}) return path_step::stop;
+  update_volumes(path, point, outgoing, incoming);
+  path.ray = spawn_ray(accel, march, point, incoming);
+  return path_step::scatter;
+}
+
+// Russian roulette after a few bounces; false: the path ends.
+static bool survive_roulette(
+    path_state& path, int bounce, path_sampler& sampler) {
+  if (bounce <= roulette_min_bounce) return true;
+  auto survive = std::min(roulette_max_survive, max(path.weight));
+  auto rr      = next1f(sampler);
+  if (rr >= survive) return false;
+  path.weight /= survive;
+  return true;
+}
+
 // Path tracer: per bounce, a free-flight sample inside media, then the
 // strategy of the point reached (shade_medium, shade_delta, shade_two_sample,
 // shade_one_sample), then Russian roulette. One-sample MIS collects emission
@@ -431,11 +572,12 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const ray3f& camera_ray,
     const trace_params& params, path_sampler& sampler, pixel_sample& features,
     int64_t& evaluations) {
+  auto use_lights    = params.implicit_mis && !lights.lights.empty();
+  auto context       = path_context{scene, accel, lights, params, use_lights,
+      use_lights && params.mis == mis_type::two_sample};
   auto path          = path_state{};
   path.ray           = camera_ray;
   path.light_sampler = params.light_sampler;
-  auto use_lights    = params.implicit_mis && !lights.lights.empty();
-  auto two_sample    = use_lights && params.mis == mis_type::two_sample;
   // Straight-through opacity hits do not count as bounces.
   auto bounce = 0;
   while (bounce < params.bounces) {
@@ -450,108 +592,18 @@ static vec4f shade_implicit(const scene_data& scene, const accel_data& accel,
                                            path, path.ray.d);
       break;
     }
-
-    // Inside a medium: sample a scattering distance before the surface.
     auto in_volume = false;
-    if (path.volumes.size > 0) {
-      auto& medium = path.volumes.items[path.volumes.size - 1];
-      auto  rd     = next1f(sampler);
-      auto  rc     = next1f(sampler);
-      auto  distance =
-          sample_transmittance(medium.density, isec.distance, rd, rc);
-      auto pdf =
-          sample_transmittance_pdf(medium.density, distance, isec.distance);
-      if (pdf <= 0) break;
-      path.weight *= eval_transmittance(medium.density, distance) / pdf;
-      in_volume     = distance < isec.distance;
-      isec.distance = distance;
-    }
-
-    if (in_volume) {
-      if (!path.featured) {
-        features.albedo = path.volumes.items[path.volumes.size - 1].scattering;
-        path.featured   = true;
-      }
-      if (last) break;
-      auto position = ray_point(path.ray, isec.distance);
-      if (!shade_medium(
-              scene, accel, lights, use_lights, path, position, sampler))
-        break;
-    } else {
-      // Nor does it need the normal and textures of a surface without
-      // emission that light can not pass (once the features are known: the
-      // first hit of a path with one bounce gives them).
-      if (last && path.featured &&
-          blocks_without_emission(scene, accel.objects[isec.object]))
-        break;
-      auto  point    = eval_surface(scene, accel, path.ray, isec);
-      auto  outgoing = -path.ray.d;
-      auto& material = point.material;
-
-      // Opacity: continue straight through (bounded, as Yocto does).
-      if (material.opacity < 1) {
-        auto ro = next1f(sampler);
-        if (ro >= material.opacity) {
-          if (path.opacity_skips++ > max_opacity_skips) break;
-          path.ray = spawn_ray(accel, params.march, point, path.ray.d);
-          continue;
-        }
-      }
-      if (bounce == 0 && !path.hit) {
-        path.hit          = true;
-        features.position = point.position;
-        features.depth    = distance(camera_ray.o, point.position);
-      }
-      if (!path.featured && !is_delta(material)) {
-        features.albedo = material.color;
-        features.normal = point.normal;
-        path.featured   = true;
-      }
-
-      // Most surfaces emit nothing: their MIS weight (a light pdf over every
-      // light) is not needed.
-      auto emission = eval_emission(material, point.normal, outgoing);
-      auto mis      = emission == vec3f{0, 0, 0}
-                          ? 1.0f
-                          : emission_weight(
-                                scene, accel, lights, path, isec.object, path.ray.d);
-      path.radiance += path.weight * emission * mis;
-      if (last) break;
-
-      auto incoming = vec3f{0, 0, 0};
-      if (is_delta(material)) {
-        incoming = shade_delta(path, point, sampler);
-      } else if (two_sample && path.volumes.size == 0) {
-        // Inside a medium, two-sample MIS gives way to the one-sample
-        // mixture (as shade_medium() does). A light sample from there would
-        // need the transmittance of the medium it starts in, which
-        // eval_light() does not know (it attenuates only the media it
-        // enters along its ray, and would take the boundary it leaves by
-        // for an entry), and it could not cross the refractive or
-        // subsurface boundary that closes most media (a delta interface
-        // blocks it). The mixture follows the light direction as the path
-        // itself, through free-flight sampling and the boundary, so it stays
-        // unbiased: emission reached that way takes weight 1 (bsdf_pdf = 0),
-        // the mixture pdf being already in the path weight.
-        incoming = shade_two_sample(scene, accel, params.march, lights, path,
-            point, sampler, evaluations);
-      } else {
-        incoming = shade_one_sample(
-            scene, accel, lights, use_lights, path, point, sampler);
-      }
-      if (incoming == vec3f{0, 0, 0}) break;
-      update_volumes(path, point, outgoing, incoming);
-      path.ray = spawn_ray(accel, params.march, point, incoming);
-    }
+    if (path.volumes.size > 0 &&
+        !sample_free_flight(path, isec, sampler, in_volume))
+      break;
+    auto step = in_volume ? shade_volume_point(context, path, isec.distance,
+                                last, features, sampler)
+                          : shade_surface_hit(context, path, isec, camera_ray,
+                                bounce, last, features, sampler, evaluations);
+    if (step == path_step::stop) break;
+    if (step == path_step::pass) continue;
     if (max(path.weight) <= 0 || !isfinite(path.weight)) break;
-
-    // Russian roulette after a few bounces.
-    if (bounce > roulette_min_bounce) {
-      auto survive = std::min(roulette_max_survive, max(path.weight));
-      auto rr      = next1f(sampler);
-      if (rr >= survive) break;
-      path.weight /= survive;
-    }
+    if (!survive_roulette(path, bounce, sampler)) break;
     bounce++;
   }
   auto& radiance = path.radiance;
