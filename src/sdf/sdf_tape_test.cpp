@@ -8,9 +8,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "../math/random.h"
 #include "../util/error.h"
+#include "sdf_expression.h"
 #include "sdf_primitives.h"
 
 namespace implicit {
@@ -611,6 +613,96 @@ TEST_CASE("sdf tape: groups nested too deep are refused") {
   }
   CHECK_THROWS_WITH_AS(make_sdf_tape(program),
       doctest::Contains("smooth union groups"), io_error);
+}
+
+// Fill the stack below the caller with `value`: the registers of the
+// caller's next evaluation lie there, left uninitialised (sdf_scratch).
+[[gnu::noinline]] static void poison_stack(float value) {
+  volatile float junk[1 << 14];
+  for (auto& x : junk) x = value;
+}
+
+// The same bits (NaN equals NaN).
+template <class T>
+static bool same_bits(const T& a, const T& b) {
+  return std::memcmp(&a, &b, sizeof(T)) == 0;
+}
+
+// Every evaluation type's result at p (and over a box about it).
+struct tape_results {
+  float             value    = 0;
+  dual<float>       gradient = {};
+  dual<float, 1>    slope    = {};
+  interval          range    = {};
+  dual<interval>    box      = {};
+  dual<interval, 1> segment  = {};
+};
+static tape_results eval_every_way(const sdf_tape& tape, vec3f p) {
+  auto begin = tape.clauses.data(), end = begin + tape.clauses.size();
+  auto box = bbox3f{p - 0.05f, p + 0.05f};
+  auto dir = normalize(vec3f{0.3f, -0.5f, 0.8f});
+  return {eval_sdf(tape, p), eval_sdf_dual(tape, p),
+      eval_sdf_slope(tape, begin, end, p, dir), eval_sdf_interval(tape, box),
+      eval_sdf_dual(tape, box), eval_sdf_slope(tape, begin, end, box, dir)};
+}
+
+TEST_CASE("sdf tape: an evaluation reads only registers it wrote") {
+  // The registers start as whatever the stack held: a clause that read one
+  // before writing it would give other bits under other garbage.
+  auto programs = std::vector<sdf_program>{};
+  auto rng      = make_rng(41);
+  auto centres  = std::vector<vec3f>{};
+  for (auto i = 0; i < 6; i++)
+    centres.push_back({uniform(rng, -0.6f, 0.6f), uniform(rng, -0.6f, 0.6f),
+        uniform(rng, -0.6f, 0.6f)});
+  programs.push_back(blob_program(centres, {0, 1, 2, 3, 4, 5}, false));
+  for (auto type : {sdf_type::op_twist, sdf_type::op_bend, sdf_type::op_repeat,
+           sdf_type::op_elongate, sdf_type::op_mirror}) {
+    auto program = sdf_program{};
+    auto box     = sdf_node{};
+    box.type     = sdf_type::rounded_box;
+    box.size     = {0.3f, 0.6f, 0.2f};
+    box.radius   = 0.05f;
+    auto warp    = sdf_node{};
+    warp.type    = type;
+    warp.value   = 1.3f;
+    warp.size    = {0.25f, 0, 1.5f};
+    warp.count   = {2, -1, -1};
+    warp.axes    = 5;
+    warp.left    = add_transform(program, add_node(program, box),
+           frame3f{{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}, {0.1f, 0, 0}});
+    add_node(program, warp);
+    programs.push_back(program);
+  }
+  for (auto text : {"max(abs(sin(5*x)*cos(5*y) + tan(0.3*z)) - 0.5, "
+                    "sqrt(x*x + y*y + z*z) - 0.8)",
+           "exp(-x) + log(abs(y) + 1) - atan2(y, x) + asin(clamp(z, -1, 1)) + "
+           "acos(clamp(x, -1, 1)) + atan(y) - 2",
+           "floor(3*x) + ceil(y) + round(z) + mod(x, 0.3) - mix(x, y, 0.25) + "
+           "square(z) + min(x, y)^2 - 1 / (1 + x*x)"}) {
+    auto program = sdf_program{};
+    parse_sdf_expression(program, text);
+    programs.push_back(program);
+  }
+  for (auto& program : programs) {
+    auto tape = make_sdf_tape(program);
+    for (auto k = 0; k < 20; k++) {
+      auto p = vec3f{uniform(rng, -1.5f, 1.5f), uniform(rng, -1.5f, 1.5f),
+          uniform(rng, -1.5f, 1.5f)};
+      poison_stack(flt_nan);
+      auto a = eval_every_way(tape, p);
+      poison_stack(-7.5f);
+      auto b = eval_every_way(tape, p);
+      INFO("program ", &program - programs.data(), " at ", p.x, " ", p.y, " ",
+          p.z);
+      CHECK(same_bits(a.value, b.value));
+      CHECK(same_bits(a.gradient, b.gradient));
+      CHECK(same_bits(a.slope, b.slope));
+      CHECK(same_bits(a.range, b.range));
+      CHECK(same_bits(a.box, b.box));
+      CHECK(same_bits(a.segment, b.segment));
+    }
+  }
 }
 
 }  // namespace implicit
