@@ -40,6 +40,23 @@ struct march_result {
 // the longer step saves (8 measured best among 2, 4 and 8).
 inline constexpr float planar_max_factor = 8;
 
+// Length of a relaxed step from a point at unbounding radius `radius`,
+// after a step of `step` from one at `prev_radius`: Keinert's fixed factor,
+// or Balint and Valasek's planar step. With the plane through the last two
+// samples the spheres touch at radius * (1 + (step - r0 + r) / (step + r0 -
+// r)); the first step, with no plane yet, is plain.
+inline float relaxed_step(
+    const march_params& params, float step, float prev_radius, float radius) {
+  if (params.planar <= 0) return radius * params.overrelax;
+  if (!(step > 0)) return radius;
+  auto num    = step - prev_radius + radius;
+  auto den    = step + prev_radius - radius;
+  auto factor = planar_max_factor;
+  if (den * (planar_max_factor - 1) > params.planar * num)
+    factor = 1 + params.planar * num / den;
+  return radius * std::max(1.0f, factor);
+}
+
 // March t in [t0, t1]; `distance(t)` is a signed lower bound of the world
 // distance from the ray point at t to the surface. The march gives up once
 // every point it could still report lies beyond `cutoff` (all later points
@@ -59,15 +76,20 @@ inline march_result sphere_trace(const Distance& distance, float t0, float t1,
   auto best_t      = t0;
   auto best_eps    = hit_min;
   auto side        = 0.0f;
+  // Take back a relaxed step: a plain one from the last point (and, for
+  // Keinert's fixed factor, no more relaxing).
+  auto retreat = [&] {
+    t            = t - step + prev_radius;
+    step         = prev_radius;
+    last_relaxed = false;
+    if (params.planar <= 0) relax = false;
+  };
   for (auto i = 0; i < params.max_iterations; i++) {
     // Past the end: a relaxed step may have jumped over a surface near the
     // end, so retry with a plain step before giving up.
     if (t > t1) {
       if (!last_relaxed) break;
-      t            = t - step + prev_radius;
-      step         = prev_radius;
-      last_relaxed = false;
-      if (params.planar <= 0) relax = false;
+      retreat();
       if (t > t1) break;
     }
     auto d = distance(t);
@@ -77,13 +99,9 @@ inline march_result sphere_trace(const Distance& distance, float t0, float t1,
     auto radius        = std::abs(d);
     auto eps           = std::max(hit_min, params.hit_relative * t);
     // Relaxed step overshot: the two spheres do not overlap, so the surface
-    // may lie in the gap. Return to a plain step from the last point (and, for
-    // Keinert's fixed factor, stop relaxing).
+    // may lie in the gap.
     if (last_relaxed && radius + prev_radius < step) {
-      t            = t - step + prev_radius;
-      step         = prev_radius;
-      last_relaxed = false;
-      if (params.planar <= 0) relax = false;
+      retreat();
       continue;
     }
     if (radius < eps) {
@@ -107,19 +125,7 @@ inline march_result sphere_trace(const Distance& distance, float t0, float t1,
     auto next    = signed_radius;
     last_relaxed = false;
     if (relax && signed_radius > 0) {
-      if (params.planar > 0) {
-        // Balint & Valasek: with the plane through the last two samples the
-        // spheres touch at radius * (1 + (step - r0 + r) / (step + r0 - r)).
-        // The first step, with no plane yet, is plain.
-        auto num    = step - prev_radius + radius;
-        auto den    = step + prev_radius - radius;
-        auto factor = planar_max_factor;
-        if (den * (planar_max_factor - 1) > params.planar * num)
-          factor = 1 + params.planar * num / den;
-        if (step > 0) next = radius * std::max(1.0f, factor);
-      } else {
-        next = radius * params.overrelax;
-      }
+      next         = relaxed_step(params, step, prev_radius, radius);
       last_relaxed = next > radius;
     }
     prev_radius = radius;
