@@ -136,24 +136,38 @@ TEST_CASE("sdf tape: constants fold, shared clauses are computed once") {
   CHECK(eval_sdf(dag_tape, {2, 0, 0}) == 30);
 }
 
+// The rounded box and the warps of the domain operator tests.
+static sdf_node test_box() {
+  auto box   = sdf_node{};
+  box.type   = sdf_type::rounded_box;
+  box.size   = {0.3f, 0.6f, 0.2f};
+  box.radius = 0.05f;
+  return box;
+}
+static sdf_node test_warp(sdf_type type) {
+  auto node  = sdf_node{};
+  node.type  = type;
+  node.value = 1.3f;
+  node.size  = {0.25f, 0, 1.5f};
+  node.count = {2, -1, -1};
+  node.axes  = 5;  // x and z
+  return node;
+}
+// The test box under a rotation, then warped by `warp` (its operand set
+// here); returns the warp's node.
+static int add_warped_box(sdf_program& program, sdf_node warp) {
+  warp.left = add_transform(program, add_node(program, test_box()),
+      frame3f{{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}, {0.1f, 0, 0}});
+  return add_node(program, warp);
+}
+
 TEST_CASE("sdf tape: domain operators as documented") {
   auto sphere   = sdf_node{};
   sphere.type   = sdf_type::sphere;
   sphere.radius = 0.5f;
-  auto box      = sdf_node{};
-  box.type      = sdf_type::rounded_box;
-  box.size      = {0.3f, 0.6f, 0.2f};
-  box.radius    = 0.05f;
+  auto box      = test_box();
   auto rng      = make_rng(3);
-  auto warp     = [&](sdf_type type) {
-    auto node  = sdf_node{};
-    node.type  = type;
-    node.value = 1.3f;
-    node.size  = {0.25f, 0, 1.5f};
-    node.count = {2, -1, -1};
-    node.axes  = 5;  // x and z
-    return node;
-  };
+  auto warp     = test_warp;
   // The maps of sdf_program.h, written out.
   auto expected_point = [](const sdf_node& w, vec3f p) {
     auto q = p;
@@ -189,10 +203,7 @@ TEST_CASE("sdf tape: domain operators as documented") {
     auto program = sdf_program{};
     // The operand is a box under a rotation, warped, then moved: the map
     // before the warp and the one after both apply.
-    auto inner = add_transform(program, add_node(program, box),
-        frame3f{{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}, {0.1f, 0, 0}});
-    w.left     = inner;
-    add_transform(program, add_node(program, w),
+    add_transform(program, add_warped_box(program, w),
         frame3f{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -0.2f, 0}});
     auto tape = make_sdf_tape(program);
     for (auto k = 0; k < 200; k++) {
@@ -659,19 +670,7 @@ TEST_CASE("sdf tape: an evaluation reads only registers it wrote") {
   for (auto type : {sdf_type::op_twist, sdf_type::op_bend, sdf_type::op_repeat,
            sdf_type::op_elongate, sdf_type::op_mirror}) {
     auto program = sdf_program{};
-    auto box     = sdf_node{};
-    box.type     = sdf_type::rounded_box;
-    box.size     = {0.3f, 0.6f, 0.2f};
-    box.radius   = 0.05f;
-    auto warp    = sdf_node{};
-    warp.type    = type;
-    warp.value   = 1.3f;
-    warp.size    = {0.25f, 0, 1.5f};
-    warp.count   = {2, -1, -1};
-    warp.axes    = 5;
-    warp.left    = add_transform(program, add_node(program, box),
-           frame3f{{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}, {0.1f, 0, 0}});
-    add_node(program, warp);
+    add_warped_box(program, test_warp(type));
     programs.push_back(program);
   }
   for (auto text : {"max(abs(sin(5*x)*cos(5*y) + tan(0.3*z)) - 0.5, "
