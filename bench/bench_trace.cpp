@@ -177,6 +177,87 @@ static std::string fixed(double value, int digits) {
   return buffer;
 }
 
+// What bench_scene() measured of one scene.
+struct scene_runs {
+  run_result fast_camera = {}, fast_path = {}, one_thread = {},
+             two_threads = {};
+  run_result  ref_camera = {}, ref_path = {};  // scaled when skipped
+  double      estimate = 0;                    // seconds of the reference
+  bool        skipped  = false;
+  std::string equal    = "-";  // camera pixels equal to the reference's
+};
+
+// The reference mode's runs: timed at 1/8 of the resolution first, then at
+// full resolution unless that would take longer than the limit; else the
+// low-resolution runs scaled by the BVH's own low-to-full ratio (like with
+// like).
+static void run_reference(const render_context& fast,
+    const render_context& slow, const trace_params& camera,
+    const trace_params& path, const bench_options& options, scene_runs& runs) {
+  auto low_camera       = camera;
+  auto low_path         = path;
+  low_camera.resolution = std::max(8, options.resolution / 8);
+  low_path.resolution   = low_camera.resolution;
+  low_path.samples      = 1;
+  auto low_ref_camera   = run(slow, low_camera);
+  auto low_ref_path     = run(slow, low_path);
+  runs.estimate =
+      low_ref_camera.seconds / low_ref_camera.samples *
+          runs.fast_camera.samples +
+      low_ref_path.seconds / low_ref_path.samples * runs.fast_path.samples;
+  runs.skipped = runs.estimate > options.reference_limit;
+  if (!runs.skipped) {
+    runs.ref_camera = run(slow, camera);
+    runs.ref_path   = run(slow, path);
+    runs.equal      = fixed(100 * equal_fraction(runs.fast_camera.image,
+                                      runs.ref_camera.image, 1 / 255.0f),
+                          2) +
+                 "%";
+    return;
+  }
+  auto low_fast_camera = run(fast, low_camera);
+  auto low_fast_path   = run(fast, low_path);
+  auto scale_to        = [](run_result ref, const run_result& low_fast,
+                      const run_result& fast_run) {
+    ref.seconds = ref.seconds / low_fast.seconds * fast_run.seconds;
+    ref.cpu     = ref.cpu / low_fast.cpu * fast_run.cpu;
+    ref.evaluations *= fast_run.samples / ref.samples;
+    ref.samples = fast_run.samples;
+    return ref;
+  };
+  runs.ref_camera = scale_to(low_ref_camera, low_fast_camera, runs.fast_camera);
+  runs.ref_path   = scale_to(low_ref_path, low_fast_path, runs.fast_path);
+}
+
+// One table row (see main's header).
+static void print_scene_row(const std::string& name, int objects,
+    double build_ms, const scene_runs& runs) {
+  auto mrays = [](const run_result& r) { return r.samples / r.seconds / 1e6; };
+  auto evals = [](const run_result& r) { return r.evaluations / r.samples; };
+  auto per_cpu = [](const run_result& r) { return r.samples / r.cpu / 1e6; };
+  auto mark    = runs.skipped ? std::string{"~"} : std::string{""};
+  auto note    = runs.skipped ? " (reference est. " + fixed(runs.estimate, 0) +
+                                 " s: skipped)"
+                              : std::string{""};
+  // Two threads against one: wall clock, and CPU time per sample (what two
+  // free cores would give; the wall ratio suffers when the cores are shared).
+  auto& one = runs.one_thread;
+  auto& two = runs.two_threads;
+  std::printf(
+      "| %s%s | %d | %.1f | %.3f | %.3f | %.1f | %.4f | %.4f | %.1f "
+      "| %s%.1f | %s%.1f | %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f "
+      "| %.2f | %.0f |\n",
+      name.c_str(), note.c_str(), objects, build_ms, mrays(runs.fast_camera),
+      per_cpu(runs.fast_camera), evals(runs.fast_camera), mrays(runs.fast_path),
+      per_cpu(runs.fast_path), evals(runs.fast_path), mark.c_str(),
+      evals(runs.ref_camera), mark.c_str(), evals(runs.ref_path), mark.c_str(),
+      runs.ref_camera.cpu / runs.fast_camera.cpu, mark.c_str(),
+      runs.ref_path.cpu / runs.fast_path.cpu, runs.equal.c_str(), mrays(one),
+      mrays(two), one.seconds / two.seconds, 2 * one.cpu / two.cpu,
+      peak_memory_mib());
+  std::fflush(stdout);
+}
+
 // Measure one scene and print its table row. Speed ratios divide CPU times
 // (robust on a shared machine); throughputs are per wall-clock second and
 // per CPU-second.
@@ -198,76 +279,20 @@ static void bench_scene(const std::string& name, const scene_data& scene,
   slow_params.accel = accel_type::none;
   auto  slow_ptr    = make_render_context(scene_data{scene}, slow_params);
   auto& fast        = *fast_ptr;
-  auto& slow        = *slow_ptr;
 
   // Warm up the thread pool and the caches.
-  auto low_camera       = camera;
-  auto low_path         = path;
-  low_camera.resolution = std::max(8, options.resolution / 8);
-  low_path.resolution   = low_camera.resolution;
-  low_path.samples      = 1;
-  run(fast, low_path);
+  auto warm       = path;
+  warm.resolution = std::max(8, options.resolution / 8);
+  warm.samples    = 1;
+  run(fast, warm);
 
-  auto fast_camera = run(fast, camera);
-  auto fast_path   = run(fast, path);
-  auto one_thread  = run(fast, path, 1);
-  auto two_threads = run(fast, path, 2);
-
-  // Reference: time it at 1/8 of the resolution first.
-  auto low_ref_camera = run(slow, low_camera);
-  auto low_ref_path   = run(slow, low_path);
-  auto estimate =
-      low_ref_camera.seconds / low_ref_camera.samples * fast_camera.samples +
-      low_ref_path.seconds / low_ref_path.samples * fast_path.samples;
-  auto ref_camera = run_result{}, ref_path = run_result{};
-  auto skipped = estimate > options.reference_limit;
-  auto equal   = std::string{"-"};
-  if (!skipped) {
-    ref_camera = run(slow, camera);
-    ref_path   = run(slow, path);
-    equal      = fixed(100 * equal_fraction(
-                                 fast_camera.image, ref_camera.image, 1 / 255.0f),
-                     2) +
-            "%";
-  } else {
-    // Compare like with like: the BVH at the same low resolution, scaled to
-    // the full run through the low-resolution ratio.
-    auto low_fast_camera = run(fast, low_camera);
-    auto low_fast_path   = run(fast, low_path);
-    auto scale_to        = [](run_result ref, const run_result& low_fast,
-                        const run_result& fast_run) {
-      ref.seconds = ref.seconds / low_fast.seconds * fast_run.seconds;
-      ref.cpu     = ref.cpu / low_fast.cpu * fast_run.cpu;
-      ref.evaluations *= fast_run.samples / ref.samples;
-      ref.samples = fast_run.samples;
-      return ref;
-    };
-    ref_camera = scale_to(low_ref_camera, low_fast_camera, fast_camera);
-    ref_path   = scale_to(low_ref_path, low_fast_path, fast_path);
-  }
-  auto mrays = [](const run_result& r) { return r.samples / r.seconds / 1e6; };
-  auto evals = [](const run_result& r) { return r.evaluations / r.samples; };
-  auto mark  = skipped ? std::string{"~"} : std::string{""};
-  auto note  = skipped
-                   ? " (reference est. " + fixed(estimate, 0) + " s: skipped)"
-                   : std::string{""};
-  // Two threads against one: wall clock, and CPU time per sample (what two
-  // free cores would give; the wall ratio suffers when the cores are shared).
-  auto wall_scaling = one_thread.seconds / two_threads.seconds;
-  auto cpu_scaling  = 2 * one_thread.cpu / two_threads.cpu;
-  auto per_cpu = [](const run_result& r) { return r.samples / r.cpu / 1e6; };
-  std::printf(
-      "| %s%s | %d | %.1f | %.3f | %.3f | %.1f | %.4f | %.4f | %.1f "
-      "| %s%.1f | %s%.1f | %s%.0fx | %s%.0fx | %s | %.4f | %.4f | %.2f "
-      "| %.2f | %.0f |\n",
-      name.c_str(), note.c_str(), (int)fast.accel.objects.size(), build_ms,
-      mrays(fast_camera), per_cpu(fast_camera), evals(fast_camera),
-      mrays(fast_path), per_cpu(fast_path), evals(fast_path), mark.c_str(),
-      evals(ref_camera), mark.c_str(), evals(ref_path), mark.c_str(),
-      ref_camera.cpu / fast_camera.cpu, mark.c_str(),
-      ref_path.cpu / fast_path.cpu, equal.c_str(), mrays(one_thread),
-      mrays(two_threads), wall_scaling, cpu_scaling, peak_memory_mib());
-  std::fflush(stdout);
+  auto runs        = scene_runs{};
+  runs.fast_camera = run(fast, camera);
+  runs.fast_path   = run(fast, path);
+  runs.one_thread  = run(fast, path, 1);
+  runs.two_threads = run(fast, path, 2);
+  run_reference(fast, *slow_ptr, camera, path, options, runs);
+  print_scene_row(name, (int)fast.accel.objects.size(), build_ms, runs);
 }
 
 // Run `work` in a child process, so that its peak memory is its own.

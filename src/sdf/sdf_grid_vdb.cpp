@@ -59,16 +59,10 @@ static float uniform_voxel_size(const openvdb::math::Transform& transform) {
   return (float)size;
 }
 
-grid_data load_vdb_grid(const std::string& filename) {
-  init_openvdb();
-  // Read through a stream that throws on a short read: io::File ignores
-  // them, so a truncated file would load with garbage voxels. Without
-  // delayed loading, since that copies the stream to a temporary file.
-  // OpenVDB trusts the length fields it reads, so it only gets the bytes
-  // that check_vdb_file() has walked.
-  auto file    = mapped_file{filename};
-  auto checked = check_vdb_file(filename, file.data, file.size);
-  auto grids   = openvdb::GridPtrVecPtr{};
+// The grids of a .vdb file whose bytes check_vdb_file() has walked.
+static openvdb::GridPtrVecPtr read_vdb_grids(
+    const std::string& filename, const std::string& checked) {
+  auto grids = openvdb::GridPtrVecPtr{};
   try {
     auto stream = std::istringstream(checked);
     stream.exceptions(std::ios::failbit | std::ios::badbit);
@@ -85,9 +79,15 @@ grid_data load_vdb_grid(const std::string& filename) {
         filename, std::string("not a readable OpenVDB file: ") + error.what());
   }
   if (!grids) throw_io_error(filename, "not a readable OpenVDB file");
+  return grids;
+}
+
+// The first float level set of the grids; the error lists what there is.
+static openvdb::FloatGrid::Ptr find_level_set(
+    const std::string& filename, const openvdb::GridPtrVec& grids) {
   auto level_set = openvdb::FloatGrid::Ptr{};
   auto found     = std::string{};
-  for (auto& base : *grids) {
+  for (auto& base : grids) {
     found += (found.empty() ? "" : ", ") + base->getName() + " (" +
              base->valueType() + ", " +
              openvdb::GridBase::gridClassToString(base->getGridClass()) + ")";
@@ -98,8 +98,22 @@ grid_data load_vdb_grid(const std::string& filename) {
     throw_io_error(
         filename, "no float level set grid; found: " +
                       (found.empty() ? std::string("no grids") : found));
-  auto name    = "grid '" + level_set->getName() + "': ";
-  auto spacing = uniform_voxel_size(level_set->transform());
+  return level_set;
+}
+
+grid_data load_vdb_grid(const std::string& filename) {
+  init_openvdb();
+  // Read through a stream that throws on a short read: io::File ignores
+  // them, so a truncated file would load with garbage voxels. Without
+  // delayed loading, since that copies the stream to a temporary file.
+  // OpenVDB trusts the length fields it reads, so it only gets the bytes
+  // that check_vdb_file() has walked.
+  auto file      = mapped_file{filename};
+  auto checked   = check_vdb_file(filename, file.data, file.size);
+  auto grids     = read_vdb_grids(filename, checked);
+  auto level_set = find_level_set(filename, *grids);
+  auto name      = "grid '" + level_set->getName() + "': ";
+  auto spacing   = uniform_voxel_size(level_set->transform());
   if (spacing == 0)
     throw_io_error(
         filename, name +

@@ -232,6 +232,28 @@ struct cap_walk {
   }
 };
 
+// A math clause's rule: min and max as CSG, `and` and `or` become the
+// operand that interval arithmetic decides; other math clauses are not
+// monotone: their operands are kept without caps.
+static void cap_math_clause(cap_walk& walk, const sdf_ssa& c) {
+  auto is_logic = c.op == sdf_op::math_and || c.op == sdf_op::math_or;
+  auto first    = is_logic ? walk.state.values[c.a] : interval{};
+  if (c.op == sdf_op::math_min) {
+    walk.min_rule(c.a, c.b);
+  } else if (c.op == sdf_op::math_max) {
+    walk.max_rule(c.a, c.b);
+  } else if (c.op == sdf_op::math_and && !may_be_zero(first)) {
+    walk.become(c.b);  // and: a if a == 0, else b
+  } else if (c.op == sdf_op::math_or && !may_be_zero(first)) {
+    walk.become(c.a);  // or: a if a != 0 (NaN included), else b
+  } else if (c.op == sdf_op::math_or && always_zero(first)) {
+    walk.become(c.b);
+  } else {
+    for (auto input = 0; input < sdf_op_inputs(c.op); input++)
+      walk.keep(input == 0 ? c.a : c.b);
+  }
+}
+
 // Pass 2: caps, floors, dropped operands and constants, top-down from the
 // root (users come after what they read, so a reverse pass sees every user
 // of a clause before the clause).
@@ -297,22 +319,7 @@ void propagate_caps(
         break;
         IMPLICIT_SDF_MATH_OP_CASES
         IMPLICIT_SDF_IMMEDIATE_CASES
-        if (c.op == sdf_op::math_min) {
-          walk.min_rule(c.a, c.b);
-        } else if (c.op == sdf_op::math_max) {
-          walk.max_rule(c.a, c.b);
-        } else if (c.op == sdf_op::math_and &&
-                   !may_be_zero(state.values[c.a])) {
-          walk.become(c.b);  // and: a if a == 0, else b
-        } else if (c.op == sdf_op::math_or && !may_be_zero(state.values[c.a])) {
-          walk.become(c.a);  // or: a if a != 0 (NaN included), else b
-        } else if (c.op == sdf_op::math_or && always_zero(state.values[c.a])) {
-          walk.become(c.b);
-        } else {
-          // Other math clauses are not monotone: no caps.
-          for (auto input = 0; input < sdf_op_inputs(c.op); input++)
-            walk.keep(input == 0 ? c.a : c.b);
-        }
+        cap_math_clause(walk, c);
         break;
     }
   }
