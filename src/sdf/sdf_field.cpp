@@ -18,9 +18,7 @@ namespace implicit {
 // FIELDS
 // -----------------------------------------------------------------------------
 
-// Corner `octant` (bit 0: x, 1: y, 2: z high) of a box split at its centre;
-// find_sdf_tape() computes the same midpoints.
-static bbox3f octant_box(const bbox3f& box, int octant) {
+bbox3f sdf_octant_box(const bbox3f& box, int octant) {
   auto mid = (box.min + box.max) * 0.5f;
   auto b   = box;
   for (auto a = 0; a < 3; a++) {
@@ -247,7 +245,7 @@ static const sdf_cell& build_cell(const sdf_field& field, int index) {
     build.cell.children = add_slots(cells, 8);
     for (auto octant = 0; octant < 8; octant++) {
       auto& child   = cell_slot(cells, build.cell.children + octant);
-      child.box     = octant_box(slot.box, octant);
+      child.box     = sdf_octant_box(slot.box, octant);
       child.depth   = slot.depth + 1;
       child.parent  = index;
       child.stalled = build.stalled;
@@ -352,7 +350,7 @@ int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box) {
     auto children = get_sdf_cell(field, cell).children;
     if (children < 0) return cell;
     auto octant = octant_towards(p, (box.min + box.max) * 0.5f, {});
-    box         = octant_box(box, octant);
+    box         = sdf_octant_box(box, octant);
     cell        = children + octant;
   }
 }
@@ -382,7 +380,7 @@ int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor,
     auto children = get_sdf_cell(field, cell).children;
     if (children < 0) break;
     auto octant = octant_towards(p, (box.min + box.max) * 0.5f, direction);
-    box         = octant_box(box, octant);
+    box         = sdf_octant_box(box, octant);
     cell        = children + octant;
     if (c.count < sdf_cursor_depth) {
       c.path[c.count]  = cell;

@@ -99,6 +99,11 @@ sdf_field make_sdf_field(const sdf_program& program, const bbox3f& box,
 int find_sdf_cell(const sdf_field& field, vec3f p);
 int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box);
 
+// Corner `octant` (bit 0: x, 1: y, 2: z high) of a box split at its centre:
+// the box of child `octant` of a cell (find_sdf_tape() computes the same
+// midpoints).
+bbox3f sdf_octant_box(const bbox3f& box, int octant);
+
 // Cell `cell` (0: the root; children of cells returned here), built if it
 // was not. The reference stays valid while the field's octree lives.
 const sdf_cell& get_sdf_cell(const sdf_field& field, int cell);

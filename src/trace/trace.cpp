@@ -681,7 +681,7 @@ static float tent_offset(float r) {
 pixel_sample trace_sample(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const camera_data& camera,
     const trace_params& params, vec2i ij, vec2i size, int sample,
-    rng_state& rng, int64_t& evaluations) {
+    rng_state& rng, int64_t& evaluations, float start) {
   auto [i, j]  = ij;
   auto sampler = path_sampler{params.sampler, {}, &rng};
   if (params.sampler == sampler_type::sobol) {
@@ -698,6 +698,7 @@ pixel_sample trace_sample(const scene_data& scene, const accel_data& accel,
   // the warp, as it costs a sizeable part of a camera ray).
   auto lens = camera.aperture > 0 ? sample_disk(next2f(sampler)) : vec2f{0, 0};
   auto ray  = eval_camera(camera, uv, lens);
+  ray.tmin  = start;
   auto result = pixel_sample{};
   auto color =
       params.shader == shader_type::implicit

@@ -73,11 +73,14 @@ struct trace_params {
   int                aovs          = 0;  // aov_bit()s of the layers to write
   // Adaptive sampling: a pixel stops once its relative error estimate is
   // below the threshold (0: off), checked from min_samples on (0: automatic).
-  float          noise_threshold = 0;
-  int            min_samples     = 0;
-  float          time            = 0;  // budget in seconds per image (0: none)
-  bool           denoise         = false;  // images filtered by denoise_image()
-  denoise_method denoiser        = denoise_method::nlm;  // with this method
+  float noise_threshold = 0;
+  int   min_samples     = 0;
+  float time            = 0;  // budget in seconds per image (0: none)
+  // Camera rays start where their block of pixels may first meet a surface
+  // (camera_blocks.h); false: at the camera.
+  bool           first_pass = true;
+  bool           denoise    = false;  // images filtered by denoise_image()
+  denoise_method denoiser   = denoise_method::nlm;  // with this method
 };
 
 // Whether the parameters ask for an AOV.
@@ -107,14 +110,15 @@ struct pixel_sample {
 // Sample `sample` of pixel `ij` of an image of `size` pixels seen by
 // `camera`. `rng` is the pixel's random stream (the random sampler draws
 // from it; the Sobol sampler derives its points from the seed, the pixel and
-// `sample`); `evaluations` counts the SDF evaluations spent. The features
-// cost a few copies per path: they are always computed. Thread-safe;
+// `sample`); `evaluations` counts the SDF evaluations spent. The camera ray
+// starts at `start` (camera_block_start(): no surface lies before it). The
+// features cost a few copies per path: they are always computed. Thread-safe;
 // allocates nothing. The render core (render.h) sums these over pixels and
 // samples.
 pixel_sample trace_sample(const scene_data& scene, const accel_data& accel,
     const lights_data& lights, const camera_data& camera,
     const trace_params& params, vec2i ij, vec2i size, int sample,
-    rng_state& rng, int64_t& evaluations);
+    rng_state& rng, int64_t& evaluations, float start = 0);
 
 // Whether the shader needs lights (and falls back to eyelight without).
 bool is_lit_shader(shader_type shader);
