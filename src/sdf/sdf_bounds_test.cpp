@@ -164,6 +164,62 @@ float central(const sdf_tape& tape, vec3f p, int axis, float h) {
                  ((double)at(q, axis) - (double)at(r, axis)));
 }
 
+// A union of 16 balls of radius 0.15 about random centres in [-1, 1]^3 (a
+// cell drops the far ones, so its tape shrinks level after level), its
+// values scaled by 0.01 so that no cell is far enough for a constant.
+sdf_program sixteen_balls() {
+  auto rng   = make_rng(61);
+  auto balls = sdf_program{};
+  auto math  = [&](sdf_type type, int a = invalidid, int b = invalidid) {
+    return add_node(balls, make_math(type, a, b));
+  };
+  auto number = [&](float value) {
+    auto node  = make_math(sdf_type::math_const);
+    node.value = value;
+    return add_node(balls, node);
+  };
+  auto balls_root = invalidid;
+  for (auto k = 0; k < 16; k++) {
+    auto centre = uniform3(rng, -1, 1);
+    auto dx =
+        math(sdf_type::math_sub, math(sdf_type::math_x), number(centre.x));
+    auto dy =
+        math(sdf_type::math_sub, math(sdf_type::math_y), number(centre.y));
+    auto dz =
+        math(sdf_type::math_sub, math(sdf_type::math_z), number(centre.z));
+    auto squared = math(sdf_type::math_add,
+        math(sdf_type::math_add, math(sdf_type::math_square, dx),
+            math(sdf_type::math_square, dy)),
+        math(sdf_type::math_square, dz));
+    auto sphere  = math(
+         sdf_type::math_sub, math(sdf_type::math_sqrt, squared), number(0.15f));
+    balls_root = k == 0 ? sphere : math(sdf_type::math_min, balls_root, sphere);
+  }
+  math(sdf_type::math_mul, balls_root, number(0.01f));
+  return balls;
+}
+
+// How many split cells, and leaves of clauses, have a range of one sign.
+void count_one_side(const sdf_field& tree, int& split, int& kept) {
+  build_sdf_field(tree);
+  split = kept = 0;
+  auto stack   = std::vector<int>{0};
+  while (!stack.empty()) {
+    auto& cell = get_sdf_cell(tree, stack.back());
+    stack.pop_back();
+    auto side = cell.range.lo > 0 || cell.range.hi < 0;
+    if (cell.children < 0) {
+      kept += side && cell.count > 0;
+      continue;
+    }
+    split += side;
+    for (auto octant = 0; octant < 8; octant++)
+      stack.push_back(cell.children + octant);
+  }
+}
+
+const auto field_box = bbox3f{{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}};
+
 }  // namespace
 
 TEST_CASE("sdf bounds: intervals hold every value in their box") {
@@ -513,8 +569,7 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
   REQUIRE(!std::isfinite(sdf_lipschitz(program)));
   auto params      = sdf_field_params{};
   params.max_depth = 4;
-  auto field       = make_sdf_field(
-            program, {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params);
+  auto field       = make_sdf_field(program, field_box, params);
   REQUIRE((bool)field.octree);
   CHECK(!field.distance);
   auto rng    = make_rng(61);
@@ -546,78 +601,34 @@ TEST_CASE("sdf field: cells of an expression keep their range and slope") {
   CHECK(leaves > 100);
   CHECK(finite > 100);
   CHECK(constant > 100);
-  // A cell on one side of the surface is not split: the tracer crosses it
-  // without an evaluation, and its children would only be more cells to
-  // walk through. Here a union of 16 balls (a cell drops the far ones, so
-  // its tape shrinks level after level), its values scaled by 0.01 so that
-  // no cell is far enough for a constant.
-  auto balls = sdf_program{};
-  auto math  = [&](sdf_type type, int a = invalidid, int b = invalidid) {
-    return add_node(balls, make_math(type, a, b));
-  };
-  auto number = [&](float value) {
-    auto node  = make_math(sdf_type::math_const);
-    node.value = value;
-    return add_node(balls, node);
-  };
-  auto balls_root = invalidid;
-  for (auto k = 0; k < 16; k++) {
-    auto centre = uniform3(rng, -1, 1);
-    auto dx =
-        math(sdf_type::math_sub, math(sdf_type::math_x), number(centre.x));
-    auto dy =
-        math(sdf_type::math_sub, math(sdf_type::math_y), number(centre.y));
-    auto dz =
-        math(sdf_type::math_sub, math(sdf_type::math_z), number(centre.z));
-    auto squared = math(sdf_type::math_add,
-        math(sdf_type::math_add, math(sdf_type::math_square, dx),
-            math(sdf_type::math_square, dy)),
-        math(sdf_type::math_square, dz));
-    auto sphere  = math(
-         sdf_type::math_sub, math(sdf_type::math_sqrt, squared), number(0.15f));
-    balls_root = k == 0 ? sphere : math(sdf_type::math_min, balls_root, sphere);
-  }
-  math(sdf_type::math_mul, balls_root, number(0.01f));
+}
+
+TEST_CASE("sdf field: cells on one side of the surface are not split") {
+  // The tracer crosses such a cell without an evaluation, and its children
+  // would only be more cells to walk through.
+  auto balls        = sixteen_balls();
+  auto params       = sdf_field_params{};
   params.leaf_nodes = 1;  // split wherever the rules allow
   params.max_depth  = 5;
-  auto small        = make_sdf_field(
-             balls, {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params);
+  auto small        = make_sdf_field(balls, field_box, params);
   REQUIRE(!small.distance);
-  // Split cells, and leaves of clauses, whose range keeps one sign.
-  auto count_one_side = [](const sdf_field& tree, int& split, int& kept) {
-    build_sdf_field(tree);
-    split = kept = 0;
-    auto stack   = std::vector<int>{0};
-    while (!stack.empty()) {
-      auto& cell = get_sdf_cell(tree, stack.back());
-      stack.pop_back();
-      auto side = cell.range.lo > 0 || cell.range.hi < 0;
-      if (cell.children < 0) {
-        kept += side && cell.count > 0;
-        continue;
-      }
-      split += side;
-      for (auto octant = 0; octant < 8; octant++)
-        stack.push_back(cell.children + octant);
-    }
-  };
   auto split = 0, kept = 0;
   count_one_side(small, split, kept);
   CHECK(split == 0);
   CHECK(kept > 50);
   // A bake samples every point: there such cells split, as before.
   params.split_one_side = true;
-  count_one_side(make_sdf_field(balls,
-                     {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params),
-      split, kept);
+  count_one_side(make_sdf_field(balls, field_box, params), split, kept);
   CHECK(split > 500);
+}
+
+TEST_CASE("sdf field: long tapes at the surface go one level deeper") {
   // Where the surface passes with a long tape (over 4 x leaf_nodes
   // clauses), a cell goes one level past max_depth, and no further.
-  params            = sdf_field_params{};
+  auto params       = sdf_field_params{};
   params.leaf_nodes = 4;
   params.max_depth  = 2;
-  auto deeper       = make_sdf_field(
-            balls, {{-1.3f, -1.3f, -1.3f}, {1.3f, 1.3f, 1.3f}}, params);
+  auto deeper       = make_sdf_field(sixteen_balls(), field_box, params);
   CHECK(deeper.depth == 3);
   build_sdf_field(deeper);
   auto levels = std::vector<std::pair<int, int>>{{0, 0}};
