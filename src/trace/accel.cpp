@@ -197,6 +197,15 @@ accel_data make_accel(
   sort_objects_by_bounds(accel);
   if (type == accel_type::bvh && (int)accel.bounded.size() > params.linear_max)
     accel.bvh = make_embree_bvh(accel);
+  if (type == accel_type::bvh) {
+    auto boxes = std::vector<bbox3f>{};
+    for (auto i : accel.bounded) {
+      auto& object = accel.objects[i];
+      boxes.push_back(transform_bbox(object.world_from_local,
+          expand(object.local_bounds, object.local_padding)));
+    }
+    accel.block_tree = make_box_tree(boxes);
+  }
   return accel;
 }
 

@@ -27,6 +27,7 @@
 #include "../scene/scene.h"
 #include "../sdf/sdf_field.h"
 #include "../sdf/sdf_split.h"
+#include "box_tree.h"
 
 // Embree's handle types (rtcore_device.h, rtcore_geometry.h), declared here so
 // that only the implementation includes Embree.
@@ -148,6 +149,9 @@ struct accel_data {
   std::vector<int> unbounded = {};  // objects tested beside the BVH
   std::vector<int> segmented = {};  // objects with `segments` (all kinds)
   embree_bvh       bvh       = {};  // see accel_params::linear_max
+  // The padded local boxes of the bounded objects in world space, as a tree
+  // whose items index `bounded` (bvh only): for the camera's first pass.
+  box_tree block_tree = {};
 };
 
 // Most bounded objects that intersect_scene() may test in a loop, sorted by

@@ -132,6 +132,41 @@ static float object_start(const accel_data& accel, const march_params& march,
   return field_start(*field, cone, epsilon, best);
 }
 
+// The least start of the bounded objects, or `best` if none has a smaller
+// one: the nodes of accel.block_tree that meet the cone (in world space),
+// nearest first, with an explicit stack; a node no nearer than `best` holds
+// no object that could start before it.
+static float tree_start(const accel_data& accel, const march_params& march,
+    vec3f origin, const vec3f (&corners)[4], float best) {
+  auto& tree = accel.block_tree;
+  if (tree.nodes.empty()) return best;
+  auto cone = make_block_cone(identity_frame, origin, corners);
+  // A path to a leaf leaves at most one sibling per level on the stack; the
+  // median splits make a tree of 2^31 items fewer than 32 levels deep.
+  constexpr auto max_stack = 64;
+  int            stack[max_stack];
+  auto           count = 0;
+  stack[count++]       = 0;
+  while (count > 0) {
+    auto& node = tree.nodes[stack[--count]];
+    if (!may_meet(cone, node.box) || box_start(cone, node.box) >= best)
+      continue;
+    if (node.count > 0) {
+      for (auto k = node.index; k < node.index + node.count; k++)
+        best = object_start(accel, march,
+            accel.objects[accel.bounded[tree.items[k]]], origin, corners, best);
+      continue;
+    }
+    auto near = node.index, far = node.index + 1;
+    if (box_start(cone, tree.nodes[far].box) <
+        box_start(cone, tree.nodes[near].box))
+      std::swap(near, far);
+    stack[count++] = far;
+    stack[count++] = near;
+  }
+  return best;
+}
+
 float camera_block_start(const accel_data& accel, const march_params& march,
     const camera_data& camera, vec2i size, vec2i lo, vec2i hi, bool tent) {
   if (accel.type != accel_type::bvh || camera.orthographic ||
@@ -150,8 +185,9 @@ float camera_block_start(const accel_data& accel, const march_params& march,
     origin     = ray.o;
   }
   auto best = flt_max;
-  for (auto& object : accel.objects)
-    best = object_start(accel, march, object, origin, corners, best);
+  for (auto i : accel.unbounded)
+    best = object_start(accel, march, accel.objects[i], origin, corners, best);
+  best = tree_start(accel, march, origin, corners, best);
   if (best == flt_max) return flt_max;
   // Rounding of the distances: start a little before.
   return std::max(0.0f, best * (1 - 1e-3f) - 2 * min_hit_epsilon(accel, march));
