@@ -168,6 +168,18 @@ static void sort_objects_by_bounds(accel_data& accel) {
   }
 }
 
+// The tree of the bounded objects' padded local boxes, mapped to world
+// space, for the camera's first pass (camera_blocks.h).
+static box_tree make_block_tree(const accel_data& accel) {
+  auto boxes = std::vector<bbox3f>{};
+  for (auto i : accel.bounded) {
+    auto& object = accel.objects[i];
+    boxes.push_back(transform_bbox(object.world_from_local,
+        expand(object.local_bounds, object.local_padding)));
+  }
+  return make_box_tree(boxes);
+}
+
 accel_data make_accel(
     const scene_data& scene, accel_type type, const accel_params& params) {
   if (params.linear_max < 0 || params.linear_max > linear_max_objects)
@@ -197,15 +209,7 @@ accel_data make_accel(
   sort_objects_by_bounds(accel);
   if (type == accel_type::bvh && (int)accel.bounded.size() > params.linear_max)
     accel.bvh = make_embree_bvh(accel);
-  if (type == accel_type::bvh) {
-    auto boxes = std::vector<bbox3f>{};
-    for (auto i : accel.bounded) {
-      auto& object = accel.objects[i];
-      boxes.push_back(transform_bbox(object.world_from_local,
-          expand(object.local_bounds, object.local_padding)));
-    }
-    accel.block_tree = make_box_tree(boxes);
-  }
+  if (type == accel_type::bvh) accel.block_tree = make_block_tree(accel);
   return accel;
 }
 

@@ -239,19 +239,23 @@ bool is_converged(const render_buffer& buffer, size_t idx,
   return pixel_error(buffer, idx) < params.noise_threshold;
 }
 
-// Samples s0 to s1 of the pixels of `rect` inside one block of the camera's
+// The pixels of both rectangles.
+static render_rect clip_rect(const render_rect& a, const render_rect& b) {
+  return {std::max(a.x0, b.x0), std::min(a.x1, b.x1), std::max(a.y0, b.y0),
+      std::min(a.y1, b.y1)};
+}
+
+// Samples s0 to s1 of `pixels`, which lie inside one block of the camera's
 // first pass (blocks of camera_block_size pixels from the image's corner).
 static void render_block(const render_context& context,
     const trace_params& params, const camera_data& camera, vec2i size,
-    const render_rect& block, const render_rect& rect, int s0, int s1,
+    const render_rect& block, const render_rect& pixels, int s0, int s1,
     render_buffer& buffer) {
   auto& held   = buffer.rect;
   auto  stride = (size_t)(held.x1 - held.x0);
   auto  start  = -1.0f;  // computed for the first pixel that takes a sample
-  for (auto j = std::max(rect.y0, block.y0); j < std::min(rect.y1, block.y1);
-       j++) {
-    for (auto i = std::max(rect.x0, block.x0); i < std::min(rect.x1, block.x1);
-         i++) {
+  for (auto j = pixels.y0; j < pixels.y1; j++) {
+    for (auto i = pixels.x0; i < pixels.x1; i++) {
       auto idx = (size_t)(j - held.y0) * stride + (i - held.x0);
       if (buffer.counts[idx] < s0) continue;  // stopped (adaptive sampling)
       auto& rng         = buffer.rngs[idx];
@@ -279,11 +283,14 @@ void render_pixels(const render_context& context, const trace_params& params,
   auto b    = camera_block_size;
   // Whole blocks of the image, whatever part of them `rect` holds, so that
   // a block's start does not depend on how the image is cut into tiles.
-  for (auto y = rect.y0 / b * b; y < rect.y1; y += b)
-    for (auto x = rect.x0 / b * b; x < rect.x1; x += b)
-      render_block(context, params, camera, size,
-          {x, std::min(x + b, size.x), y, std::min(y + b, size.y)}, rect, s0,
-          s1, buffer);
+  for (auto y = rect.y0 / b * b; y < rect.y1; y += b) {
+    for (auto x = rect.x0 / b * b; x < rect.x1; x += b) {
+      auto block =
+          render_rect{x, std::min(x + b, size.x), y, std::min(y + b, size.y)};
+      render_block(context, params, camera, size, block, clip_rect(block, rect),
+          s0, s1, buffer);
+    }
+  }
 }
 
 image_data average_samples(const render_buffer& buffer) {
@@ -475,10 +482,9 @@ bool render_samples(const render_context& context, const trace_params& params,
         stopped.store(true, std::memory_order_relaxed);
         return;
       }
-      auto pixels = render_rect{std::max(rect.x0, block.cols().begin() * b),
-          std::min(rect.x1, block.cols().end() * b),
-          std::max(rect.y0, block.rows().begin() * b),
-          std::min(rect.y1, block.rows().end() * b)};
+      auto pixels = clip_rect(
+          rect, {block.cols().begin() * b, block.cols().end() * b,
+                    block.rows().begin() * b, block.rows().end() * b});
       render_pixels(context, params, camera, pixels, p0, p1, buffer);
       if (callbacks.progress) {
         auto lock = std::lock_guard<std::mutex>{mutex};
