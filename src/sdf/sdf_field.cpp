@@ -44,12 +44,19 @@ static int field_depth(size_t leaves, int extra) {
 // CELLS
 // -----------------------------------------------------------------------------
 
-// A cell and what building it needs. Slots live in blocks that never move,
-// so readers reach a built cell without a lock; `state` becomes `built`
-// (release) after the cell is complete, and the cell never changes after.
+// A cell and what building it needs, in two parts: the node that a descent
+// reads (whether the cell is built, its children), 8 bytes, and the slot
+// with the rest, 128 bytes. Descents through a 190,000-cell octree touch
+// only nodes (1.5 MiB, against 24 MiB of slots), and the slot of the leaf
+// they reach. Both live in blocks that never move, so readers reach a built
+// cell without a lock; `state` becomes `built` (release) after the cell is
+// complete, and the cell never changes after.
 enum cell_state : int { unbuilt = 0, building = 1, built = 2 };
+struct sdf_cell_node {
+  std::atomic<int> state    = unbuilt;
+  int              children = invalidid;  // as sdf_cell::children, once built
+};
 struct sdf_cell_slot {
-  std::atomic<int>            state   = unbuilt;
   sdf_cell                    cell    = {};
   bbox3f                      box     = {};
   int                         depth   = 0;
@@ -60,7 +67,7 @@ struct sdf_cell_slot {
   int stalled = 0;  // levels above it, its parent's up, that dropped nothing
 };
 
-// Slot blocks of doubling sizes (1024, 1024, 2048, 4096, ...): slot i is in
+// Slot blocks of doubling sizes (1024, 2048, 4096, ...): slot i is in
 // block k = floor(log2(i / 1024 + 1)), so 32 blocks hold any octree and the
 // block table never grows under its readers.
 static constexpr int cell_block_bits = 10;
@@ -71,39 +78,53 @@ struct sdf_field_cells {
   int                                                  max_depth = 0;
   size_t                                               max_bytes = 0;
   std::array<std::atomic<sdf_cell_slot*>, cell_blocks> blocks    = {};
+  std::array<std::atomic<sdf_cell_node*>, cell_blocks> nodes     = {};
   // Guarded by `mutex`: what the cells own, their count and bytes.
-  std::mutex                                    mutex  = {};
-  std::vector<std::unique_ptr<sdf_cell_slot[]>> owned  = {};
-  std::vector<std::unique_ptr<sdf_clause[]>>    arenas = {};
-  size_t                                        free   = 0;
-  size_t                                        arena  = 0;
-  int                                           count  = 0;
-  size_t                                        bytes  = 0;
+  std::mutex                                    mutex       = {};
+  std::vector<std::unique_ptr<sdf_cell_slot[]>> owned       = {};
+  std::vector<std::unique_ptr<sdf_cell_node[]>> owned_nodes = {};
+  std::vector<std::unique_ptr<sdf_clause[]>>    arenas      = {};
+  size_t                                        free        = 0;
+  size_t                                        arena       = 0;
+  int                                           count       = 0;
+  size_t                                        bytes       = 0;
   // Scratch space of simplifications, reused (no allocation per cell).
   std::vector<std::unique_ptr<sdf_simplify_state>> scratch = {};
 };
 
+// The block of cell `index` and its place in the block.
+struct cell_place {
+  int      block  = 0;
+  uint32_t offset = 0;
+};
+static cell_place place_of(int index) {
+  auto j   = (uint32_t)index + (1u << cell_block_bits);
+  auto top = 31 - __builtin_clz(j);
+  return {top - cell_block_bits, j - (1u << top)};
+}
 static sdf_cell_slot& cell_slot(const sdf_field_cells& cells, int index) {
-  auto j     = (uint32_t)index + (1u << cell_block_bits);
-  auto top   = 31 - __builtin_clz(j);
-  auto block = top - cell_block_bits;
-  return cells.blocks[block].load(std::memory_order_acquire)[j - (1u << top)];
+  auto at = place_of(index);
+  return cells.blocks[at.block].load(std::memory_order_acquire)[at.offset];
+}
+static sdf_cell_node& cell_node(const sdf_field_cells& cells, int index) {
+  auto at = place_of(index);
+  return cells.nodes[at.block].load(std::memory_order_acquire)[at.offset];
 }
 
 // Append `count` slots (under the mutex); returns the first.
 static int add_slots(sdf_field_cells& cells, int count) {
   auto first = cells.count;
   for (auto i = first; i < first + count; i++) {
-    auto j     = (uint32_t)i + (1u << cell_block_bits);
-    auto top   = 31 - __builtin_clz(j);
-    auto block = top - cell_block_bits;
-    if (j == (1u << top)) {
-      cells.owned.push_back(
-          std::make_unique<sdf_cell_slot[]>(size_t{1} << top));
-      cells.blocks[block].store(
-          cells.owned.back().get(), std::memory_order_release);
-      cells.bytes += (sizeof(sdf_cell_slot) << top);
-    }
+    auto at = place_of(i);
+    if (at.offset != 0) continue;
+    auto size = size_t{1} << (at.block + cell_block_bits);
+    cells.owned.push_back(std::make_unique<sdf_cell_slot[]>(size));
+    cells.owned_nodes.push_back(std::make_unique<sdf_cell_node[]>(size));
+    cells.blocks[at.block].store(
+        cells.owned.back().get(), std::memory_order_release);
+    cells.nodes[at.block].store(
+        cells.owned_nodes.back().get(), std::memory_order_release);
+    cells.bytes += (sizeof(sdf_cell_slot) + sizeof(sdf_cell_node)) * size;
   }
   cells.count += count;
   return first;
@@ -224,9 +245,10 @@ static cell_build simplify_cell(
 static const sdf_cell& build_cell(const sdf_field& field, int index) {
   auto& cells = *field.octree;
   auto& slot  = cell_slot(cells, index);
+  auto& node  = cell_node(cells, index);
   auto  state = (int)unbuilt;
-  if (!slot.state.compare_exchange_strong(state, building)) {
-    while (slot.state.load(std::memory_order_acquire) != built)
+  if (!node.state.compare_exchange_strong(state, building)) {
+    while (node.state.load(std::memory_order_acquire) != built)
       std::this_thread::yield();
     return slot.cell;
   }
@@ -253,8 +275,9 @@ static const sdf_cell& build_cell(const sdf_field& field, int index) {
     }
   }
   cells.scratch.push_back(std::move(build.state));
-  slot.cell = build.cell;
-  slot.state.store(built, std::memory_order_release);
+  slot.cell     = build.cell;
+  node.children = build.cell.children;
+  node.state.store(built, std::memory_order_release);
   if (slot.parent >= 0) {
     auto& parent = cell_slot(cells, slot.parent);
     if (++parent.children_built == 8) {
@@ -266,9 +289,18 @@ static const sdf_cell& build_cell(const sdf_field& field, int index) {
 }
 
 const sdf_cell& get_sdf_cell(const sdf_field& field, int cell) {
-  auto& slot = cell_slot(*field.octree, cell);
-  if (slot.state.load(std::memory_order_acquire) == built) return slot.cell;
+  auto& node = cell_node(*field.octree, cell);
+  if (node.state.load(std::memory_order_acquire) == built)
+    return cell_slot(*field.octree, cell).cell;
   return build_cell(field, cell);
+}
+
+// The first child of cell `cell` (invalidid: a leaf), built if it was not:
+// what a descent reads, from the nodes alone.
+static int cell_children(const sdf_field& field, int cell) {
+  auto& node = cell_node(*field.octree, cell);
+  if (node.state.load(std::memory_order_acquire) == built) return node.children;
+  return build_cell(field, cell).children;
 }
 
 void build_sdf_field(const sdf_field& field) {
@@ -347,7 +379,7 @@ int find_sdf_cell(const sdf_field& field, vec3f p, bbox3f& box) {
   auto cell = 0;
   box       = field.box;
   while (true) {
-    auto children = get_sdf_cell(field, cell).children;
+    auto children = cell_children(field, cell);
     if (children < 0) return cell;
     auto octant = octant_towards(p, (box.min + box.max) * 0.5f, {});
     box         = sdf_octant_box(box, octant);
@@ -364,6 +396,7 @@ int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor,
     vec3f direction) {
   auto& c = cursor;
   c.cell  = invalidid;
+  c.leaf  = nullptr;
   if (!field.octree || !inside(field.box, p)) return invalidid;
   // The deepest kept ancestor that holds p (the root holds it: p is inside).
   auto k = c.count - 1;
@@ -377,7 +410,7 @@ int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor,
   auto box  = c.boxes[k];
   c.count   = k + 1;
   while (true) {
-    auto children = get_sdf_cell(field, cell).children;
+    auto children = cell_children(field, cell);
     if (children < 0) break;
     auto octant = octant_towards(p, (box.min + box.max) * 0.5f, direction);
     box         = sdf_octant_box(box, octant);
@@ -389,6 +422,7 @@ int find_sdf_cell(const sdf_field& field, vec3f p, sdf_field_cursor& cursor,
     }
   }
   c.cell = cell;
+  c.leaf = &get_sdf_cell(field, cell);
   c.box  = box;
   return cell;
 }
@@ -406,10 +440,12 @@ vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step) {
   // One primitive in the object's space: its analytic gradient, or its own
   // finite differences.
   if (!field.octree) return eval_sdf_gradient(field.full, p, step);
-  auto cell  = find_sdf_cell(field, p);
-  auto shape = sdf_node{};
-  if (cell >= 0) {
-    auto& leaf = get_sdf_cell(field, cell);
+  // The samples lie in p's leaf or near it: a cursor finds their leaves
+  // from there, not from the root (the same leaves, so the same values).
+  auto cursor = sdf_field_cursor{};
+  auto shape  = sdf_node{};
+  if (find_sdf_cell(field, p, cursor) >= 0) {
+    auto& leaf = *cursor.leaf;
     if (leaf.count > 0 && is_single_shape(field.full, leaf.clauses,
                               leaf.clauses + leaf.count, shape)) {
       auto g = vec3f{};
@@ -419,7 +455,7 @@ vec3f eval_sdf_gradient(const sdf_field& field, vec3f p, float step) {
     }
   }
   return normalize(tetrahedral_gradient(
-      [&](vec3f q) { return eval_sdf(field, q); }, p, step));
+      [&](vec3f q) { return eval_sdf(field, q, cursor); }, p, step));
 }
 
 size_t sdf_field_bytes(const sdf_field& field) {
@@ -434,7 +470,7 @@ size_t sdf_field_cells_built(const sdf_field& field) {
   auto lock  = std::lock_guard{field.octree->mutex};
   auto count = size_t{0};
   for (auto i = 0; i < field.octree->count; i++)
-    count += cell_slot(*field.octree, i).state.load() == built;
+    count += cell_node(*field.octree, i).state.load() == built;
   return count;
 }
 

@@ -148,8 +148,9 @@ inline bool inside_half_open(const bbox3f& b, vec3f p) {
 }
 inline constexpr int sdf_cursor_depth = 16;  // ancestors kept, from the root
 struct sdf_field_cursor {
-  int    cell  = invalidid;  // the leaf
-  bbox3f box   = {};         // its box
+  int             cell = invalidid;  // the leaf
+  const sdf_cell* leaf = nullptr;    // its cell (null outside the octree)
+  bbox3f          box  = {};         // its box
   int    count = 0;  // cells kept: path[0] the root, down the leaf's path
   int    path[sdf_cursor_depth]  = {};
   bbox3f boxes[sdf_cursor_depth] = {};
@@ -163,7 +164,8 @@ inline float eval_sdf(
     const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
   if (!(cursor.cell >= 0 && inside_half_open(cursor.box, p)))
     find_sdf_cell(field, p, cursor);
-  return eval_sdf_cell(field, cursor.cell, p);
+  if (!cursor.leaf) return eval_sdf(field.full, p);
+  return eval_sdf_leaf(field, *cursor.leaf, p);
 }
 
 // Interval of the values over `box` (inside the cell) with the tape of

@@ -10,6 +10,7 @@
 #include "../math/random.h"
 #include "../util/error.h"
 #include "sdf_models.h"
+#include "sdf_primitives.h"
 #include "sdf_split.h"
 
 namespace implicit {
@@ -453,12 +454,51 @@ TEST_CASE("sdf field: a cursor finds the leaf a search from the root finds") {
     auto expected     = find_sdf_cell(field, p, expected_box);
     auto found        = find_sdf_cell(field, p, cursor);
     REQUIRE(found == expected);
-    if (expected < 0) continue;
+    if (expected < 0) {
+      CHECK(cursor.leaf == nullptr);
+      continue;
+    }
     CHECK(cursor.box.min == expected_box.min);
     CHECK(cursor.box.max == expected_box.max);
+    CHECK(cursor.leaf == &get_sdf_cell(field, expected));
     deep += cursor.count >= 5;
   }
   CHECK(deep > 1000);
+}
+
+TEST_CASE("sdf field: a gradient is the whole field's finite differences") {
+  // The four samples of a normal are found from the centre's leaf (a
+  // cursor), not from the root: the same leaves, so the same floats, near
+  // leaf borders too (samples in other leaves than the centre's).
+  auto rng     = make_rng(31);
+  auto program = random_model(
+      rng, 300, {sdf_type::op_smooth_union, sdf_type::op_union}, 0.1f, 0.05f);
+  auto params       = sdf_field_params{};
+  params.leaf_nodes = 2;
+  params.max_depth  = 6;
+  auto field = make_sdf_field(program, {{-1, -1, -1}, {1, 1, 1}}, params);
+  REQUIRE((bool)field.octree);
+  auto crossing = 0;
+  for (auto k = 0; k < 3000; k++) {
+    auto step = k % 2 ? 1e-3f : 0.05f;  // the second crosses leaves often
+    auto p    = uniform3(rng, -1.05f, 1.05f);
+    auto g    = eval_sdf_gradient(field, p, step);
+    auto cell = find_sdf_cell(field, p);
+    auto leaf = cell >= 0 ? &get_sdf_cell(field, cell) : nullptr;
+    auto one  = sdf_node{};
+    if (leaf && leaf->count > 0 &&
+        is_single_shape(
+            field.full, leaf->clauses, leaf->clauses + leaf->count, one))
+      continue;  // the primitive's own gradient
+    auto expected = normalize(tetrahedral_gradient(
+        [&](vec3f q) { return eval_sdf(field, q); }, p, step));
+    REQUIRE(g.x == expected.x);
+    REQUIRE(g.y == expected.y);
+    REQUIRE(g.z == expected.z);
+    auto corner = p + vec3f{step, -step, -step};
+    crossing += find_sdf_cell(field, corner) != cell;
+  }
+  CHECK(crossing > 300);
 }
 
 TEST_CASE(

@@ -779,13 +779,26 @@ inline void insert_smallest(S& s, const V& x) {
   s.v[i] = x;
 }
 
-// The smallest floats so far (sdf_smooth_floats).
+// The smallest floats so far (sdf_smooth_floats), the places past count
+// held at +inf, so that an insertion needs no branch on the values: where
+// it lands depends on the data, and insert_smallest's mispredicted
+// branches were most of a 10,000-sphere blend's point values. The same
+// values in the same places as insert_smallest's (equal values keep their
+// order: a later one goes after).
 inline void smooth_open(sdf_smooth_floats& s) {
+  for (auto& v : s.v) v = flt_inf;
   s.count = 0;
   s.nan   = false;
 }
 inline void smooth_insert(sdf_smooth_floats& s, float x) {
-  insert_smallest(s, x);
+  if (x != x) s.nan = true;
+  if (x != x) return;
+  for (auto i = sdf_smooth_group_size - 1; i > 0; i--) {
+    auto shifted = s.v[i - 1] > x ? s.v[i - 1] : x;
+    s.v[i]       = s.v[i] > x ? shifted : s.v[i];
+  }
+  s.v[0]  = s.v[0] > x ? x : s.v[0];
+  s.count = std::min(s.count + 1, sdf_smooth_group_size);
 }
 inline float smooth_fold(const sdf_smooth_floats& s, float k) {
   if (s.nan || s.count == 0) return std::numeric_limits<float>::quiet_NaN();

@@ -14,6 +14,7 @@
 #include "../util/error.h"
 #include "sdf_expression.h"
 #include "sdf_primitives.h"
+#include "sdf_tape_eval.h"
 
 namespace implicit {
 namespace {
@@ -557,6 +558,36 @@ TEST_CASE("sdf tape: a smooth union group folds its sorted values") {
   // Two operands stay one binary clause (the same function).
   auto pair = make_sdf_tape(blob_program(centres, {0, 1}, false));
   for (auto& clause : pair.ssa) CHECK(clause.op != sdf_op::smooth_open);
+}
+
+TEST_CASE(
+    "sdf tape: a group's floats go where the sorted insertion puts them") {
+  // The branch-free insertion of floats against insert_smallest (which the
+  // dual values use): the same values in the same places, the same count
+  // and NaN flag, over sequences with repeats, signed zeros and infinities.
+  auto rng     = make_rng(41);
+  auto choices = std::vector<float>{
+      0.0f, -0.0f, 1.0f, -1.0f, 0.5f, flt_inf, -flt_inf, 2.0f, std::nanf("")};
+  for (auto run = 0; run < 2000; run++) {
+    auto fast = sdf_smooth_floats{}, sorted = sdf_smooth_floats{};
+    smooth_open(fast);
+    smooth_open(sorted);
+    auto length = rand1i(rng, 20);
+    for (auto i = 0; i < length; i++) {
+      auto nan = run % 4 == 0 && rand1i(rng, 16) == 0;
+      auto x =
+          rand1i(rng, 2) ? choices[rand1i(rng, 8)] : uniform(rng, -2.0f, 2.0f);
+      if (nan) x = choices[8];
+      smooth_insert(fast, x);
+      insert_smallest(sorted, x);
+      REQUIRE(fast.count == sorted.count);
+      REQUIRE(fast.nan == sorted.nan);
+      for (auto k = 0; k < sorted.count; k++)
+        REQUIRE(std::memcmp(&fast.v[k], &sorted.v[k], sizeof(float)) == 0);
+    }
+    auto a = smooth_fold(fast, 0.3f), b = smooth_fold(sorted, 0.3f);
+    CHECK(std::memcmp(&a, &b, sizeof(float)) == 0);
+  }
 }
 
 TEST_CASE("sdf tape: a group's operands are ordered in space") {

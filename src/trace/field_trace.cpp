@@ -41,10 +41,9 @@ struct field_ray {
   const sdf_field* field = nullptr;
   ray3f            ray   = {};
   segment_region   whole = {};  // the whole tape over the object's stretch
-  // The last located leaf (cursor.cell, cursor.box, the path to it) and
-  // its cell, kept: a march asks for it at every step.
-  mutable sdf_field_cursor cursor  = {};
-  mutable const sdf_cell*  located = nullptr;
+  // The last located leaf (cursor.cell, its cell, its box, the path to it),
+  // kept: a march asks for it at every step.
+  mutable sdf_field_cursor cursor = {};
   // Where the ray leaves that leaf: the ray parameter, the axis of the face
   // and the face's plane (the next find puts the point on it).
   mutable float exit_t = flt_nan, exit_plane = 0;
@@ -52,7 +51,7 @@ struct field_ray {
 
   // The only reads of the octree's cells.
   const sdf_cell& leaf(int region) const {
-    if (region == cursor.cell && located) return *located;
+    if (region == cursor.cell && cursor.leaf) return *cursor.leaf;
     return get_sdf_cell(*field, region);
   }
   const sdf_clause* begin(int region) const {
@@ -102,12 +101,11 @@ struct field_ray {
       index      = find(t + probe, exit);
     }
     if (index < 0) return whole;
-    located    = &get_sdf_cell(*field, index);
-    auto range = located->range;
+    auto& located = *cursor.leaf;
+    auto  range   = located.range;
     // A leaf on one side of the surface is crossed without its slope.
-    auto derivative = segment_one_side(range)
-                          ? entire_interval
-                          : leaf_derivative(*located, ray.d);
+    auto derivative = segment_one_side(range) ? entire_interval
+                                              : leaf_derivative(located, ray.d);
     return {index, std::min(exit, whole.t_exit), range, derivative, false};
   }
 
@@ -161,10 +159,10 @@ march_result trace_field(const trace_object& object, const march_params& params,
 }
 
 vec3f eval_field_gradient(const sdf_field& field, vec3f p, float step) {
-  auto cell = find_sdf_cell(field, p);
-  auto f    = dual<float>{};
-  if (cell >= 0 && get_sdf_cell(field, cell).count > 0) {
-    auto& leaf = get_sdf_cell(field, cell);
+  auto cursor = sdf_field_cursor{};
+  auto f      = dual<float>{};
+  if (find_sdf_cell(field, p, cursor) >= 0 && cursor.leaf->count > 0) {
+    auto& leaf = *cursor.leaf;
     f = eval_sdf_dual(field.full, leaf.clauses, leaf.clauses + leaf.count, p);
   } else {
     f = eval_sdf_dual(field.full, p);
@@ -173,7 +171,7 @@ vec3f eval_field_gradient(const sdf_field& field, vec3f p, float step) {
   auto l = length(g);
   if (l > 0 && std::isfinite(l)) return g / l;
   g = tetrahedral_gradient(
-      [&](vec3f q) { return eval_sdf(field, q); }, p, step);
+      [&](vec3f q) { return eval_sdf(field, q, cursor); }, p, step);
   l = length(g);
   return l > 0 && std::isfinite(l) ? g / l : vec3f{0, 0, 1};
 }
