@@ -108,17 +108,19 @@ bbox3f sdf_octant_box(const bbox3f& box, int octant);
 // was not. The reference stays valid while the field's octree lives.
 const sdf_cell& get_sdf_cell(const sdf_field& field, int cell);
 
-// Value at a local point with the tape of a leaf (its bound if constant).
+// Value at a local point with the tape of a leaf (its bound if constant;
+// no leaf, outside the octree: the whole tape).
 inline float eval_sdf_leaf(
-    const sdf_field& field, const sdf_cell& leaf, vec3f p) {
-  if (leaf.count == 0) return leaf.bound;
-  return eval_sdf(field.full, leaf.clauses, leaf.clauses + leaf.count, p);
+    const sdf_field& field, const sdf_cell* leaf, vec3f p) {
+  if (!leaf) return eval_sdf(field.full, p);
+  if (leaf->count == 0) return leaf->bound;
+  return eval_sdf(field.full, leaf->clauses, leaf->clauses + leaf->count, p);
 }
 // Value at a local point with the tape of cell `cell` (a leaf from
 // find_sdf_cell, or invalidid for the whole tape). Allocates nothing.
 inline float eval_sdf_cell(const sdf_field& field, int cell, vec3f p) {
-  if (cell < 0) return eval_sdf(field.full, p);
-  return eval_sdf_leaf(field, get_sdf_cell(field, cell), p);
+  return eval_sdf_leaf(
+      field, cell < 0 ? nullptr : &get_sdf_cell(field, cell), p);
 }
 
 // Distance bound at a local point: exact near the surface, see sdf_cell.
@@ -164,8 +166,7 @@ inline float eval_sdf(
     const sdf_field& field, vec3f p, sdf_field_cursor& cursor) {
   if (!(cursor.cell >= 0 && inside_half_open(cursor.box, p)))
     find_sdf_cell(field, p, cursor);
-  if (!cursor.leaf) return eval_sdf(field.full, p);
-  return eval_sdf_leaf(field, *cursor.leaf, p);
+  return eval_sdf_leaf(field, cursor.leaf, p);
 }
 
 // Interval of the values over `box` (inside the cell) with the tape of

@@ -111,7 +111,7 @@ struct field_ray {
 
   float value(int region, float t) const {
     if (region < 0) return eval_sdf_cell(*field, region, ray_point(ray, t));
-    return eval_sdf_leaf(*field, leaf(region), ray_point(ray, t));
+    return eval_sdf_leaf(*field, &leaf(region), ray_point(ray, t));
   }
 
   vec2f value_slope(int region, float t) const {
