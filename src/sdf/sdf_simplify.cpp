@@ -175,13 +175,12 @@ struct cap_walk {
   void smooth_group_rule(const std::vector<sdf_ssa>& ssa, float k) {
     auto& chain = state.chain;
     chain.clear();
-    auto open = ssa[node].a;
-    for (; ssa[open].op == sdf_op::smooth_add; open = ssa[open].a)
-      chain.push_back(open);
     auto least = flt_inf, second = flt_inf;  // the two least upper ends
     auto entire_operand = false;
-    for (auto add : chain) {
-      auto b = ssa[add].b;
+    auto open           = ssa[node].a;
+    for (; ssa[open].op == sdf_op::smooth_add; open = ssa[open].a) {
+      chain.push_back(open);
+      auto b = ssa[open].b;
       entire_operand |= entire(b);
       second = std::max(least, std::min(second, hi(b)));
       least  = std::min(least, hi(b));
@@ -259,12 +258,18 @@ static void cap_math_clause(cap_walk& walk, const sdf_ssa& c) {
 // of a clause before the clause).
 void propagate_caps(
     const std::vector<sdf_ssa>& ssa, sdf_simplify_state& state) {
+  // Caps and floors are written when a clause is first reached (keep()):
+  // only the root's are set here.
   auto n = (int)ssa.size();
-  state.caps.assign(n, flt_inf);
-  state.floors.assign(n, -flt_inf);
+  if ((int)state.caps.size() < n) {
+    state.caps.resize(n);
+    state.floors.resize(n);
+  }
   state.pass.assign(n, invalidid);
   state.state.assign(n, unreached);
-  state.state[n - 1] = kept;
+  state.state[n - 1]  = kept;
+  state.caps[n - 1]   = flt_inf;
+  state.floors[n - 1] = -flt_inf;
   for (auto i = n - 1; i >= 0; i--) {
     if (state.state[i] == unreached) continue;
     auto& c     = ssa[i];
@@ -330,16 +335,16 @@ void propagate_caps(
 void emit_clauses(const std::vector<sdf_ssa>& ssa, sdf_simplify_state& state,
     std::vector<sdf_ssa>& simplified) {
   auto n = (int)ssa.size();
-  // Passes chain downwards (a clause becomes an earlier one): resolve them
-  // in increasing order.
-  for (auto i = 0; i < n; i++)
-    if (state.pass[i] >= 0 && state.pass[state.pass[i]] >= 0)
-      state.pass[i] = state.pass[state.pass[i]];
   auto target = [&](int k) { return state.pass[k] >= 0 ? state.pass[k] : k; };
-  state.index.assign(n, invalidid);
+  // Only kept clauses are read, each after it got its place.
+  if ((int)state.index.size() < n) state.index.resize(n);
   auto start = (int)simplified.size();
   for (auto i = 0; i < n; i++) {
-    if (state.state[i] == unreached || state.pass[i] >= 0) continue;
+    // Passes chain downwards (a clause becomes an earlier one, whose pass
+    // is resolved by now).
+    auto& pass = state.pass[i];
+    if (pass >= 0 && state.pass[pass] >= 0) pass = state.pass[pass];
+    if (state.state[i] == unreached || pass >= 0) continue;
     state.index[i] = (int)simplified.size() - start;
     if (state.state[i] == folded) {
       simplified.push_back({sdf_op::math_const, invalidid, invalidid,
