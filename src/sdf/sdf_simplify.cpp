@@ -334,7 +334,7 @@ void propagate_caps(
 // each clause that became another replaced by it, constants folded.
 void emit_clauses(const std::vector<sdf_ssa>& ssa, sdf_simplify_state& state,
     std::vector<sdf_ssa>& simplified) {
-  auto n = (int)ssa.size();
+  auto n      = (int)ssa.size();
   auto target = [&](int k) { return state.pass[k] >= 0 ? state.pass[k] : k; };
   // Only kept clauses are read, each after it got its place.
   if ((int)state.index.size() < n) state.index.resize(n);

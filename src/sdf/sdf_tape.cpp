@@ -523,7 +523,7 @@ namespace {
 // from `next`, the freed ones wait in a stack (no allocation: the octree
 // allocates registers for every cell it builds).
 struct register_file {
-  int                                    count = 0, next = 0, freed = 0;
+  int count = 0, next = 0, freed = 0;
   // Not cleared: a place is written before it is read (a cleared stack
   // per file was a third of the allocation of an octree leaf's tape).
   std::array<uint8_t, sdf_max_registers> stack;
@@ -578,15 +578,16 @@ bool allocate_sdf_registers(
   // Each clause's register: on the stack for a cell's tape (one call per
   // octree leaf), on the heap for a long whole tape.
   std::array<int, 1024> local;  // filled below, as far as n
-  auto heap  = std::vector<int>{};
-  auto reg   = local.data();
+
+  auto heap = std::vector<int>{};
+  auto reg  = local.data();
   if (n > (int)local.size()) {
     heap.resize(n);
     reg = heap.data();
   }
   std::fill(reg, reg + n, invalidid);
   auto start = clauses.size();
-  auto file    = [&](int index) -> register_file& {
+  auto file  = [&](int index) -> register_file& {
     auto op = ssa[index].op;
     return is_point_op(op) ? points : is_group_op(op) ? groups : scalars;
   };
