@@ -48,10 +48,10 @@ static int field_depth(size_t leaves, int extra) {
 // reads (whether the cell is built, its children), 8 bytes, and the slot
 // with the rest, 120 bytes. Descents through a 140,000-cell octree (the
 // 10,000-sphere blend's preview) touch only nodes (1.1 MiB, against 16 MiB
-// of slots), and the slot of the leaf
-// they reach. Both live in blocks that never move, so readers reach a built
-// cell without a lock; `state` becomes `built` (release) after the cell is
-// complete, and the cell never changes after.
+// of slots), and the slot of the leaf they reach. Both live in blocks that
+// never move, so readers reach a built cell without a lock; `state`
+// becomes `built` (release) after the cell is complete, and the cell never
+// changes after.
 enum cell_state : int { unbuilt = 0, building = 1, built = 2 };
 struct sdf_cell_node {
   std::atomic<int> state    = unbuilt;

@@ -524,8 +524,8 @@ namespace {
 // allocates registers for every cell it builds).
 struct register_file {
   int count = 0, next = 0, freed = 0;
-  // Not cleared: a place is written before it is read (a cleared stack
-  // per file was a third of the allocation of an octree leaf's tape).
+  // Not cleared: a place is written before it is read (this runs once per
+  // octree leaf, 116,000 times in a 10,000-sphere blend's preview).
   std::array<uint8_t, sdf_max_registers> stack;
   explicit register_file(int count_) : count{count_} {}
   bool take(int& reg) {

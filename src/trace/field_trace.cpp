@@ -110,8 +110,8 @@ struct field_ray {
   }
 
   float value(int region, float t) const {
-    if (region < 0) return eval_sdf_cell(*field, region, ray_point(ray, t));
-    return eval_sdf_leaf(*field, &leaf(region), ray_point(ray, t));
+    auto cell = region < 0 ? nullptr : &leaf(region);
+    return eval_sdf_leaf(*field, cell, ray_point(ray, t));
   }
 
   vec2f value_slope(int region, float t) const {
