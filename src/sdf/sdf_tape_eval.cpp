@@ -21,20 +21,38 @@ float eval_sdf(const sdf_tape& pool, const sdf_clause* begin,
   return run_sdf_tape<float>(pool, begin, end, p);
 }
 
-void eval_sdf(const sdf_tape& pool, const sdf_clause* begin,
+namespace {
+
+// Values at `count` points, N per pass; lanes past the last point repeat it
+// (their values are dropped).
+template <int N>
+void eval_sdf_lanes(const sdf_tape& pool, const sdf_clause* begin,
     const sdf_clause* end, const vec3f* points, float* values, size_t count) {
-  // Lanes past the last point repeat it (their values are dropped).
-  for (size_t start = 0; start < count; start += sdf_lane_count) {
-    auto lanes = std::min(count - start, (size_t)sdf_lane_count);
-    auto batch = sdf_lane_points{};
-    for (auto i = 0; i < sdf_lane_count; i++) {
+  for (size_t start = 0; start < count; start += N) {
+    auto lanes = std::min(count - start, (size_t)N);
+    auto batch = sdf_lane_points_of<N>{};
+    for (auto i = 0; i < N; i++) {
       auto& q    = points[start + std::min((size_t)i, lanes - 1)];
       batch.x[i] = q.x;
       batch.y[i] = q.y;
       batch.z[i] = q.z;
     }
-    auto result = run_sdf_tape<sdf_lanes>(pool, begin, end, batch);
+    auto result = run_sdf_tape<sdf_lanes_of<N>>(pool, begin, end, batch);
     for (size_t i = 0; i < lanes; i++) values[start + i] = result.v[i];
+  }
+}
+
+}  // namespace
+
+void eval_sdf(const sdf_tape& pool, const sdf_clause* begin,
+    const sdf_clause* end, const vec3f* points, float* values, size_t count) {
+  // A few points (a march's batch along one ray) take narrow lanes: wide
+  // ones would evaluate copies of the last point.
+  if (count <= (size_t)sdf_march_lane_count) {
+    eval_sdf_lanes<sdf_march_lane_count>(
+        pool, begin, end, points, values, count);
+  } else {
+    eval_sdf_lanes<sdf_lane_count>(pool, begin, end, points, values, count);
   }
 }
 

@@ -158,37 +158,47 @@ inline float sdf_constant(float value, const float*) { return value; }
 // -----------------------------------------------------------------------------
 
 // Points per pass of the batched evaluator: the register files then take
-// 256 x 32 x 4 + 64 x 32 x 12 bytes (56 KiB) of stack.
-inline constexpr int sdf_lane_count = 32;
+// 256 x 32 x 4 + 64 x 32 x 12 bytes (56 KiB) of stack. A march's batch of
+// points ahead along one ray (segment_trace.h) is shorter: its own width.
+inline constexpr int sdf_lane_count       = 32;
+inline constexpr int sdf_march_lane_count = 8;
 
-struct sdf_lanes {
-  float v[sdf_lane_count];
+template <int N>
+struct sdf_lanes_of {
+  float v[N];
 };
-struct sdf_lane_points {
-  float x[sdf_lane_count], y[sdf_lane_count], z[sdf_lane_count];
+template <int N>
+struct sdf_lane_points_of {
+  float x[N], y[N], z[N];
 };
+using sdf_lanes       = sdf_lanes_of<sdf_lane_count>;
+using sdf_lane_points = sdf_lane_points_of<sdf_lane_count>;
 
-template <class F>
-inline sdf_lanes lanes_map(const sdf_lanes& a, const F& f) {
-  auto r = sdf_lanes{};
-  for (auto i = 0; i < sdf_lane_count; i++) r.v[i] = f(a.v[i]);
+template <int N, class F>
+inline sdf_lanes_of<N> lanes_map(const sdf_lanes_of<N>& a, const F& f) {
+  auto r = sdf_lanes_of<N>{};
+  for (auto i = 0; i < N; i++) r.v[i] = f(a.v[i]);
   return r;
 }
-template <class F>
-inline sdf_lanes lanes_map(const sdf_lanes& a, const sdf_lanes& b, const F& f) {
-  auto r = sdf_lanes{};
-  for (auto i = 0; i < sdf_lane_count; i++) r.v[i] = f(a.v[i], b.v[i]);
+template <int N, class F>
+inline sdf_lanes_of<N> lanes_map(
+    const sdf_lanes_of<N>& a, const sdf_lanes_of<N>& b, const F& f) {
+  auto r = sdf_lanes_of<N>{};
+  for (auto i = 0; i < N; i++) r.v[i] = f(a.v[i], b.v[i]);
   return r;
 }
 
 // Every math clause of one or two operands, lane by lane.
 #define IMPLICIT_SDF_LANES_MATH_0(id)
 #define IMPLICIT_SDF_LANES_MATH_1(id)                   \
-  inline sdf_lanes id(const sdf_lanes& a) {             \
+  template <int N>                                      \
+  inline sdf_lanes_of<N> id(const sdf_lanes_of<N>& a) { \
     return lanes_map(a, [](float x) { return id(x); }); \
   }
 #define IMPLICIT_SDF_LANES_MATH_2(id)                                  \
-  inline sdf_lanes id(const sdf_lanes& a, const sdf_lanes& b) {        \
+  template <int N>                                                     \
+  inline sdf_lanes_of<N> id(                                           \
+      const sdf_lanes_of<N>& a, const sdf_lanes_of<N>& b) {            \
     return lanes_map(a, b, [](float x, float y) { return id(x, y); }); \
   }
 #define IMPLICIT_SDF_LANES_MATH(id, name, operands) \
@@ -200,16 +210,21 @@ IMPLICIT_SDF_MATH(IMPLICIT_SDF_LANES_MATH)
 #undef IMPLICIT_SDF_LANES_MATH_0
 
 #define IMPLICIT_SDF_LANES_CSG_2(id)                                   \
-  inline sdf_lanes id(const sdf_lanes& a, const sdf_lanes& b) {        \
+  template <int N>                                                     \
+  inline sdf_lanes_of<N> id(                                           \
+      const sdf_lanes_of<N>& a, const sdf_lanes_of<N>& b) {            \
     return lanes_map(a, b, [](float x, float y) { return id(x, y); }); \
   }
 #define IMPLICIT_SDF_LANES_CSG_K(id)                                       \
-  inline sdf_lanes id(const sdf_lanes& a, const sdf_lanes& b, float k) {   \
+  template <int N>                                                         \
+  inline sdf_lanes_of<N> id(                                               \
+      const sdf_lanes_of<N>& a, const sdf_lanes_of<N>& b, float k) {       \
     return lanes_map(a, b, [k](float x, float y) { return id(x, y, k); }); \
   }
-#define IMPLICIT_SDF_LANES_CSG_1(id)                        \
-  inline sdf_lanes id(const sdf_lanes& a, float k) {        \
-    return lanes_map(a, [k](float x) { return id(x, k); }); \
+#define IMPLICIT_SDF_LANES_CSG_1(id)                             \
+  template <int N>                                               \
+  inline sdf_lanes_of<N> id(const sdf_lanes_of<N>& a, float k) { \
+    return lanes_map(a, [k](float x) { return id(x, k); });      \
   }
 IMPLICIT_SDF_LANES_CSG_2(csg_union)
 IMPLICIT_SDF_LANES_CSG_2(csg_intersection)
@@ -224,11 +239,12 @@ IMPLICIT_SDF_LANES_CSG_1(csg_scale)
 #undef IMPLICIT_SDF_LANES_CSG_K
 #undef IMPLICIT_SDF_LANES_CSG_2
 
-inline sdf_lane_points map_point(
-    const sdf_tape& pool, int frame, const sdf_lane_points& p) {
+template <int N>
+inline sdf_lane_points_of<N> map_point(
+    const sdf_tape& pool, int frame, const sdf_lane_points_of<N>& p) {
   auto& f = pool.frames[frame];
-  auto  q = sdf_lane_points{};
-  for (auto i = 0; i < sdf_lane_count; i++) {
+  auto  q = sdf_lane_points_of<N>{};
+  for (auto i = 0; i < N; i++) {
     auto r = transform_point(f, {p.x[i], p.y[i], p.z[i]});
     q.x[i] = r.x;
     q.y[i] = r.y;
@@ -236,10 +252,11 @@ inline sdf_lane_points map_point(
   }
   return q;
 }
-inline sdf_lane_points warp_point(
-    const sdf_node& node, const sdf_lane_points& p) {
-  auto q = sdf_lane_points{};
-  for (auto i = 0; i < sdf_lane_count; i++) {
+template <int N>
+inline sdf_lane_points_of<N> warp_point(
+    const sdf_node& node, const sdf_lane_points_of<N>& p) {
+  auto q = sdf_lane_points_of<N>{};
+  for (auto i = 0; i < N; i++) {
     auto r = warp_point(node, vec3f{p.x[i], p.y[i], p.z[i]});
     q.x[i] = r.x;
     q.y[i] = r.y;
@@ -247,19 +264,21 @@ inline sdf_lane_points warp_point(
   }
   return q;
 }
-inline sdf_lanes point_coord(const sdf_lane_points& p, int axis) {
-  auto r   = sdf_lanes{};
+template <int N>
+inline sdf_lanes_of<N> point_coord(const sdf_lane_points_of<N>& p, int axis) {
+  auto r   = sdf_lanes_of<N>{};
   auto src = axis == 0 ? p.x : axis == 1 ? p.y : p.z;
-  for (auto i = 0; i < sdf_lane_count; i++) r.v[i] = src[i];
+  for (auto i = 0; i < N; i++) r.v[i] = src[i];
   return r;
 }
 // One loop per primitive type, its switch outside the lanes.
-inline sdf_lanes eval_shape(
-    const sdf_node& node, const sdf_lane_points& q, float) {
-  auto r = sdf_lanes{};
+template <int N>
+inline sdf_lanes_of<N> eval_shape(
+    const sdf_node& node, const sdf_lane_points_of<N>& q, float) {
+  auto r = sdf_lanes_of<N>{};
 #define IMPLICIT_SDF_LANES_SHAPE(id, name)                \
   case sdf_type::id:                                      \
-    for (auto i = 0; i < sdf_lane_count; i++)             \
+    for (auto i = 0; i < N; i++)                          \
       r.v[i] = eval_##id(node, {q.x[i], q.y[i], q.z[i]}); \
     break;
   switch (node.type) {
@@ -269,9 +288,10 @@ inline sdf_lanes eval_shape(
 #undef IMPLICIT_SDF_LANES_SHAPE
   return r;
 }
-inline sdf_lanes sdf_constant(float value, const sdf_lanes*) {
-  auto r = sdf_lanes{};
-  for (auto i = 0; i < sdf_lane_count; i++) r.v[i] = value;
+template <int N>
+inline sdf_lanes_of<N> sdf_constant(float value, const sdf_lanes_of<N>*) {
+  auto r = sdf_lanes_of<N>{};
+  for (auto i = 0; i < N; i++) r.v[i] = value;
   return r;
 }
 
@@ -812,18 +832,23 @@ inline void smooth_add(sdf_smooth_floats& s, float x, float) {
 inline float smooth_close(const sdf_smooth_floats& s, float k) {
   return smooth_fold(s, k);
 }
+template <int N>
 struct sdf_smooth_lanes {
-  sdf_smooth_floats lane[sdf_lane_count];
+  sdf_smooth_floats lane[N];
 };
-inline void smooth_open(sdf_smooth_lanes& s) {
+template <int N>
+inline void smooth_open(sdf_smooth_lanes<N>& s) {
   for (auto& lane : s.lane) smooth_open(lane);
 }
-inline void smooth_add(sdf_smooth_lanes& s, const sdf_lanes& x, float) {
-  for (auto i = 0; i < sdf_lane_count; i++) smooth_insert(s.lane[i], x.v[i]);
+template <int N>
+inline void smooth_add(
+    sdf_smooth_lanes<N>& s, const sdf_lanes_of<N>& x, float) {
+  for (auto i = 0; i < N; i++) smooth_insert(s.lane[i], x.v[i]);
 }
-inline sdf_lanes smooth_close(const sdf_smooth_lanes& s, float k) {
-  auto r = sdf_lanes{};
-  for (auto i = 0; i < sdf_lane_count; i++) r.v[i] = smooth_fold(s.lane[i], k);
+template <int N>
+inline sdf_lanes_of<N> smooth_close(const sdf_smooth_lanes<N>& s, float k) {
+  auto r = sdf_lanes_of<N>{};
+  for (auto i = 0; i < N; i++) r.v[i] = smooth_fold(s.lane[i], k);
   return r;
 }
 
@@ -918,11 +943,13 @@ struct sdf_value_types<float> {
   using group = sdf_smooth_floats;
   static float close(const group& s, float k) { return smooth_close(s, k); }
 };
-template <>
-struct sdf_value_types<sdf_lanes> {
-  using point = sdf_lane_points;
-  using group = sdf_smooth_lanes;
-  static sdf_lanes close(const group& s, float k) { return smooth_close(s, k); }
+template <int N>
+struct sdf_value_types<sdf_lanes_of<N>> {
+  using point = sdf_lane_points_of<N>;
+  using group = sdf_smooth_lanes<N>;
+  static sdf_lanes_of<N> close(const group& s, float k) {
+    return smooth_close(s, k);
+  }
 };
 template <>
 struct sdf_value_types<interval> {

@@ -2,6 +2,7 @@
 
 #include "field_trace.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "../sdf/sdf_primitives.h"
@@ -112,6 +113,17 @@ struct field_ray {
   float value(int region, float t) const {
     auto cell = region < 0 ? nullptr : &leaf(region);
     return eval_sdf_leaf(*field, cell, ray_point(ray, t));
+  }
+
+  // The same values as value(), in one pass of the leaf's tape.
+  void values(int region, const float* t, float* f, int count) const {
+    if (is_constant(region)) {
+      std::fill(f, f + count, leaf(region).bound);
+      return;
+    }
+    vec3f points[segment_batch_size];
+    for (auto k = 0; k < count; k++) points[k] = ray_point(ray, t[k]);
+    eval_sdf(field->full, begin(region), end(region), points, f, count);
   }
 
   vec2f value_slope(int region, float t) const {

@@ -19,6 +19,10 @@
 //   bound is loose and those steps would creep up to the surface, a
 //   bolder step whose end value, with the bound of how fast f may
 //   approach 0 backwards, proves it crossed no root (segment_bold_step);
+//   the bold or plain steps that would follow one another there are
+//   aimed at once and evaluated in one batch (one pass of the tape over up
+//   to 8 points, about 1.6 times a single value's cost), then checked in
+//   order as one step at a time would be (segment_bold_batch);
 // - in a region without a finite bound (a jump, sqrt at 0, a possible NaN)
 //   the ray's interval is bisected with an explicit stack, nearest half
 //   first, and each piece is dropped when its range excludes 0, marched when
@@ -94,6 +98,8 @@ inline bool segment_one_side(interval range) {
 // object's field; tests adapt closed forms). Any type with these members:
 //   segment_region locate(float t)       the region the ray enters at t
 //   float value(int region, float t)     f at the ray point t
+//   void values(int region, const float* t, float* f, int count)   f at
+//       `count` ray points (at most segment_batch_size) in one pass
 //   vec2f value_slope(int region, float t)   f and df/dt there
 //   segment_bound bound(int region, float t0, float t1)   over [t0, t1]
 //   float split(int region, float t0, float t1)   a t in (t0, t1) where f
@@ -121,6 +127,10 @@ inline constexpr int   segment_root_steps    = 64;
 // The region's slope bound is refined over a segment ahead when its step
 // covers less than this fraction of the region's stretch.
 inline constexpr float segment_local_fraction = 1.0f / 8;
+// Most points of a batch of steps (segment_bold_batch): the width of the
+// batched evaluator's narrow lanes (sdf_march_lane_count). A batch counts
+// as one evaluation (one pass of the tape) in the ray's count and budget.
+inline constexpr int segment_batch_size = 8;
 // Evaluations per ray (points, intervals) allowed per iteration of the
 // sphere-tracing cap: a region costs about as much as a sphere-tracing step.
 inline constexpr int segment_evaluation_factor = 4;
@@ -131,6 +141,9 @@ struct segment_state {
   float last_t       = 0;      // everything before it is on the start side
   float last_f       = 0;      // f at last_t when `have_last`
   bool  have_last    = false;
+  // The value checked before last_t's, where known (else NaN): how fast f
+  // fell there aims the next region's first bold step.
+  float before_t = flt_nan, before_f = flt_nan;
   // A proven lower bound of |f| at margin_t, on the start side (0: none):
   // what a step that crossed a region whole leaves of |f| at its end, so
   // the next region may be crossed without an evaluation.
@@ -169,12 +182,15 @@ inline void segment_bracket(segment_state& state, float t, float f = flt_nan) {
 inline void segment_skip(segment_state& state, float t, float margin) {
   state.last_t    = t;
   state.have_last = false;
+  state.before_t  = flt_nan;
   state.margin    = margin;
   state.margin_t  = t;
 }
 
 // Note that f at t (on the start side) was checked with everything before.
 inline void segment_advance(segment_state& state, float t, float f) {
+  state.before_t  = state.have_last ? state.last_t : flt_nan;
+  state.before_f  = state.last_f;
   state.last_t    = t;
   state.last_f    = f;
   state.have_last = true;
@@ -252,6 +268,103 @@ inline float segment_bold_step(
   auto along = size / slope;
   auto proof = size * (1 / rate + 1 / back) / (1 + slope / back);
   return 0.9f * std::min(along, proof);
+}
+
+// The bold steps that would follow one another from t (f there, `safe` =
+// |f| / rate root-free after it) if f kept falling at the rate `slope` seen
+// over the last step, evaluated in one batch (the creep near a surface was
+// most of a hit's values, each a pass over the leaf's tape: a batch of 8
+// costs about 1.6 of them), then checked in order as segment_bold_step's
+// proof checks one: a point on the start side is kept while no root lies
+// within |f| / rate after the last kept point nor within |f_k| / back
+// before it; the first point on the other side brackets the root when what
+// is unproven between the last kept point and it is no wider than the hit
+// threshold (a plain step's bracket); the sequence ends with a step of the
+// threshold once the aimed steps get shorter (where the plain march would
+// step by it). Returns the points kept (the last in t, f, the one before in
+// t_prev, f_prev) or, with state.found, the bracket; 0 when none was kept
+// and nothing bracketed, -1 when the aim left room for one step only (the
+// march takes it alone).
+template <typename Function>
+inline int segment_bold_batch(const Function& function, int region, float& t,
+    float& f, float& t_prev, float& f_prev, float rate, float back, float reach,
+    float epsilon, segment_state& state) {
+  auto  inside = state.start_inside;
+  auto  slope  = (inside ? -(f_prev - f) : f_prev - f) / (t - t_prev);
+  float points[segment_batch_size], values[segment_batch_size];
+  auto  count = 0;
+  auto  at = t, size = std::abs(f);
+  while (count < segment_batch_size) {
+    auto bold = 0.9f * std::min(size / slope,
+                           size * (1 / rate + 1 / back) / (1 + slope / back));
+    auto last = !(bold > epsilon);
+    auto next = at + (last ? std::max(epsilon, size / rate) : bold);
+    if (!(next > at && next < reach)) break;
+    points[count++] = next;
+    if (last) break;
+    size -= slope * bold;
+    at = next;
+  }
+  if (count < 2) return -1;
+  function.values(region, points, values, count);
+  state.evaluations++;  // one pass (the cost the budget counts)
+  auto kept = 0;
+  for (auto k = 0; k < count; k++) {
+    auto f_k = values[k], gap = points[k] - t, ahead = std::abs(f) / rate;
+    if (f_k != f_k) break;
+    if (segment_inside(f_k) != inside) {
+      if (gap - ahead - std::abs(f_k) / rate <= epsilon) {
+        segment_bracket(state, points[k], f_k);
+        return kept + 1;
+      }
+      break;
+    }
+    if (!(ahead + std::abs(f_k) / back >= gap)) break;
+    t_prev = t, f_prev = f;
+    t = points[k], f = f_k;
+    segment_advance(state, t, f);
+    kept++;
+  }
+  return kept;
+}
+
+// Plain steps from t, the first of `step` (|f| / rate or the hit
+// threshold), the next ones of the threshold (no longer than a plain step
+// from there would be), where f's fall over the last step (slope, as
+// segment_bold_batch) says the surface lies more than one step ahead: up to
+// segment_batch_size of them in one batch, each point's side checked in
+// order as segment_sample checks it (the first change of side brackets, as
+// a plain step would). Where the bold step's proof is short of the
+// threshold (a slope far below the region's bound), these steps were over a
+// sixth of a hit's values. Returns the points taken (0: the march steps
+// alone).
+template <typename Function>
+inline int segment_plain_batch(const Function& function, int region, float& t,
+    float& f, float& t_prev, float& f_prev, float step, float epsilon, float b,
+    segment_state& state) {
+  auto inside = state.start_inside;
+  auto slope  = (inside ? -(f_prev - f) : f_prev - f) / (t - t_prev);
+  auto along  = std::abs(f) / slope - step;
+  if (!(along > 0.5f * epsilon)) return 0;
+  auto  count = std::min(segment_batch_size, (int)(along / epsilon) + 2);
+  float points[segment_batch_size], values[segment_batch_size];
+  for (auto k = 0; k < count; k++) {
+    points[k] = std::min(t + step + epsilon * (float)k, b);
+    if (!(points[k] > (k == 0 ? t : points[k - 1]))) count = k;
+  }
+  if (count < 2) return 0;
+  function.values(region, points, values, count);
+  state.evaluations++;  // one pass (the cost the budget counts)
+  for (auto k = 0; k < count; k++) {
+    if (segment_inside(values[k]) != inside) {
+      segment_bracket(state, points[k], values[k]);
+      return k + 1;
+    }
+    t_prev = t, f_prev = f;
+    t = points[k], f = values[k];
+    segment_advance(state, t, f);
+  }
+  return count;
 }
 
 // Step from t where the region's slope bound allows `safe`: when that
@@ -342,8 +455,11 @@ inline void segment_lipschitz(const Function& function, int region,
     // What the last region left of |f| crosses this one whole.
     return segment_skip(state, b, state.margin - rate * (b - a));
   }
+  auto t_prev = flt_nan, f_prev = flt_nan;  // the last value before t
   if (state.have_last && state.last_t == a) {
-    f = state.last_f;
+    f      = state.last_f;
+    t_prev = state.before_t;
+    f_prev = state.before_f;
   } else {
     if (segment_sample(function, region, t, state)) return;
     f = state.last_f;
@@ -357,7 +473,6 @@ inline void segment_lipschitz(const Function& function, int region,
                                  state, f_b);
   if (reach < b && t + std::abs(f) / rate > reach)
     return segment_advance(state, b, f_b);
-  auto t_prev = flt_nan, f_prev = flt_nan;  // the last value before t
   while (t < b) {
     if (t > state.cutoff || state.evaluations >= state.max_evaluations) return;
     // |f| / rate (any step where f cannot approach 0); a NaN value (no
@@ -381,11 +496,17 @@ inline void segment_lipschitz(const Function& function, int region,
       segment_skip(state, b, margin > 0 ? margin : 0);
       return;
     }
-    auto step = decisive ? safe : std::max(safe, epsilon);
-    auto bold = decisive ? 0.0f
-                         : segment_bold_step(f, t - t_prev, f_prev - f, rate,
-                               back, state.start_inside);
-    if (bold > step && t + bold < reach) {
+    auto step  = decisive ? safe : std::max(safe, epsilon);
+    auto bold  = decisive ? 0.0f
+                          : segment_bold_step(f, t - t_prev, f_prev - f, rate,
+                                back, state.start_inside);
+    auto batch = bold > step && t + bold < reach
+                     ? segment_bold_batch(function, region, t, f, t_prev,
+                           f_prev, rate, back, reach, epsilon, state)
+                     : -1;
+    if (state.found) return;
+    if (batch > 0) continue;
+    if (batch < 0 && bold > step && t + bold < reach) {
       // Verified from both ends: no root lies within |f| / rate after t
       // nor within |f_n| / back before t + bold; where these cover the
       // step, it crossed none.
@@ -398,6 +519,12 @@ inline void segment_lipschitz(const Function& function, int region,
         segment_advance(state, t, f);
         continue;
       }
+    }
+    if (!decisive && batch <= 0 &&
+        segment_plain_batch(function, region, t, f, t_prev, f_prev, step,
+            epsilon, b, state) > 0) {
+      if (state.found) return;
+      continue;
     }
     auto next = std::min(t + step, b);
     if (next <= t) next = float_up(t, 1);
